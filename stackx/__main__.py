@@ -1,0 +1,5 @@
+"""Allow ``python -m stackx``."""
+
+from stackx.cli import main
+
+main()

@@ -1,0 +1,157 @@
+"""The ``stackx`` command line.
+
+Heavy modules (numpy, pydantic, the solvers) are imported inside the commands, so ``stackx --help`` stays
+fast. Every expected failure is a ``StackxError``: one or two lines on stderr and exit code 2 (bad input) or
+1 (a run failed); ``--debug`` shows the traceback instead.
+"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+from typing import TYPE_CHECKING, Annotated, Optional
+
+import typer
+
+from stackx import __version__
+
+if TYPE_CHECKING:
+    from stackx.config import ExperimentSpec
+
+app = typer.Typer(add_completion=False, no_args_is_help=True, pretty_exceptions_enable=False,
+                  help="Run, compare and stress-test rigid-body contact solvers from YAML configs.")
+
+Paths = Annotated[list[str], typer.Argument(help="YAML config files, or folders whose *.yaml files run in name order")]
+Sets = Annotated[Optional[list[str]], typer.Option("--set", help="override a config value: key.path=value (YAML)")]
+Plugins = Annotated[Optional[Path], typer.Option("--plugins", help="folder of local plugin *.py files "
+                                                 "(default: the nearest plugins/ at or above each config)")]
+Debug = Annotated[bool, typer.Option("--debug", help="show tracebacks")]
+
+
+def _version(value: bool) -> None:
+    if value:
+        typer.echo(f"stackx {__version__}")
+        raise typer.Exit()
+
+
+@app.callback()
+def _root(version: Annotated[bool, typer.Option("--version", callback=_version, is_eager=True,
+                                                help="print the version and exit")] = False) -> None:
+    """Run, compare and stress-test rigid-body contact solvers from YAML configs."""
+
+
+def _guard(debug: bool):  # type: ignore[no-untyped-def]
+    """Report ``StackxError`` as a short message with its exit code."""
+    from contextlib import contextmanager
+
+    @contextmanager
+    def guard():  # type: ignore[no-untyped-def]
+        from stackx.errors import StackxError
+
+        try:
+            yield
+        except StackxError as exc:
+            if debug:
+                raise
+            typer.echo(f"error: {exc}", err=True)
+            raise typer.Exit(exc.exit_code) from None
+
+    return guard()
+
+
+def _load_all(paths: list[str], sets: list[str] | None, plugins: Path | None) -> list[ExperimentSpec]:
+    """Validate every config before anything runs, so one bad file stops the whole command cleanly."""
+    from stackx.config import config_files, load
+    from stackx.errors import ConfigError
+
+    specs = [load(f, sets, plugins) for f in config_files(paths)]
+    owner: dict[str, str] = {}
+    for spec in specs:
+        for output in spec.outputs:
+            for name in output.files():
+                if name in owner and owner[name] != spec.file:
+                    raise ConfigError(f"{name!r} is written by both {owner[name]} and {spec.file}", file=spec.file)
+                owner[name] = spec.file
+    return specs
+
+
+@app.command()
+def run(paths: Paths, out: Annotated[Path, typer.Option("--out", "-o", help="output folder")] = Path("out"),
+        sets: Sets = None, plugins: Plugins = None, debug: Debug = False,
+        quiet: Annotated[bool, typer.Option("--quiet", "-q", help="no progress bar or table")] = False) -> None:
+    """Run experiments and write their artifacts into the output folder."""
+    with _guard(debug):
+        from stackx.session import run_all
+
+        run_all(_load_all(paths, sets, plugins), out, quiet=quiet)
+
+
+@app.command()
+def validate(paths: Paths, sets: Sets = None, plugins: Plugins = None, debug: Debug = False) -> None:
+    """Check configs (and the plugins they name) without running anything."""
+    with _guard(debug):
+        for spec in _load_all(paths, sets, plugins):
+            typer.echo(f"ok  {spec.file}: {len(spec.runs)} run(s), {len(spec.outputs)} output(s)")
+
+
+@app.command()
+def plugins(plugins: Plugins = None, debug: Debug = False) -> None:
+    """List every plugin: its kind, its name and where it came from."""
+    with _guard(debug):
+        from rich.console import Console
+        from rich.table import Table
+
+        from stackx import registry
+
+        if plugins is not None:
+            registry.load_local_plugins(plugins)
+        elif Path("plugins").is_dir():
+            registry.load_local_plugins(Path("plugins"))
+        table = Table(title="stackx plugins")
+        for col in ("kind", "name", "source", "about"):
+            table.add_column(col)
+        for kind, reg in registry.ALL.items():
+            for entry in reg.entries():
+                doc = (entry.plugin.__doc__ or " ").strip().splitlines()[0] if entry.plugin else "(not loaded)"
+                table.add_row(kind, entry.name, entry.origin, doc)
+        Console().print(table)
+
+
+@app.command()
+def schema(plugins: Plugins = None, debug: Debug = False,
+           out: Annotated[Optional[Path], typer.Option("--out", "-o", help="write to a file")] = None) -> None:
+    """Print the JSON Schema of a config, with every installed plugin's parameters (for YAML editors)."""
+    with _guard(debug):
+        import json
+
+        from stackx import registry
+        from stackx.schema import config_schema
+
+        if plugins is not None:
+            registry.load_local_plugins(plugins)
+        elif Path("plugins").is_dir():
+            registry.load_local_plugins(Path("plugins"))
+        text = json.dumps(config_schema(), indent=2, sort_keys=True) + "\n"
+        if out is None:
+            sys.stdout.write(text)
+        else:
+            out.write_text(text)
+
+
+@app.command()
+def serve(folder: Annotated[Path, typer.Argument(help="folder to serve")] = Path("out"),
+          port: Annotated[int, typer.Option(help="TCP port")] = 8080,
+          host: Annotated[str, typer.Option(help="address to listen on")] = "127.0.0.1",
+          debug: Debug = False) -> None:
+    """Serve an output folder over HTTP to watch index.html play the frames."""
+    with _guard(debug):
+        from stackx.errors import ConfigError
+        from stackx.serve import serve_folder
+
+        if not folder.is_dir():
+            raise ConfigError("no such folder", file=str(folder))
+        serve_folder(folder, host, port)
+
+
+def main() -> None:
+    app()

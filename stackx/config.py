@@ -1,0 +1,396 @@
+"""Experiment configs: YAML in, validated run specifications out.
+
+A config describes one experiment: a scene, a solver with its parameters, a step size and a run length,
+optionally several named ``runs`` or a ``sweep`` grid that override any of those, and the ``outputs``
+(sinks and renderers) that turn the results into files. Every plugin section is validated by the plugin's
+own params model, and every error points at ``file:line:col`` with the key path.
+"""
+
+from __future__ import annotations
+
+import copy
+import itertools
+import re
+from dataclasses import dataclass, field
+from fractions import Fraction
+from pathlib import Path as FsPath
+from typing import Annotated, Any
+
+from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, ValidationError, field_validator
+
+from stackx import registry
+from stackx.errors import ConfigError
+from stackx.outputs import Output
+from stackx.scenes import Scene
+from stackx.yamlsrc import Mark, Path, Source, dotted, load_file, load_text
+
+RUN_KEYS = ("scene", "solver", "gravity", "dt", "steps")
+NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
+
+
+def _fraction(value: Any) -> Any:
+    """Accept ``dt: 1/60`` as well as a number, so a step size can be written as it is thought of."""
+    if isinstance(value, str) and re.fullmatch(r"\s*\d+(\.\d*)?\s*/\s*\d+(\.\d*)?\s*", value):
+        num, den = (Fraction(part.strip()) for part in value.split("/"))
+        if den == 0:
+            raise ValueError("division by zero")
+        return float(num / den)
+    return value
+
+
+class Sweep(BaseModel):
+    """A grid of values for dotted keys; each grid point is one run, named from ``name``."""
+
+    model_config = ConfigDict(extra="forbid")
+    name: str = Field("run{index}", description="run name template: {index} and {<grid key>} are filled in")
+    grid: dict[str, Annotated[list[Any], Field(min_length=1)]] = Field(
+        min_length=1, description="dotted key -> list of values; the product is run, last key fastest")
+
+
+class ExperimentModel(BaseModel):
+    """The top level of a config file."""
+
+    model_config = ConfigDict(extra="forbid")
+    description: str = Field("", description="what the experiment shows")
+    scene: dict[str, Any] | None = Field(None, description="the scene plugin: {name: column, ...its params}")
+    solver: dict[str, Any] | None = Field(None, description="the solver plugin: {name: pgs, ...its params}")
+    gravity: float = Field(-9.8, allow_inf_nan=False, description="vertical acceleration (m/s^2, up positive)")
+    dt: Annotated[float, BeforeValidator(_fraction)] = Field(
+        1 / 60, gt=0, le=10.0, allow_inf_nan=False, description="step size (s); a fraction like 1/60 is accepted")
+    steps: int = Field(0, ge=0, le=100_000_000, description="number of steps to run")
+    runs: dict[str, dict[str, Any]] | None = Field(
+        None, description="named runs, each a mapping of dotted keys to override (e.g. solver.iterations: 4)")
+    sweep: Sweep | None = Field(None, description="a grid of overrides; one run per grid point")
+    outputs: list[dict[str, Any]] = Field(
+        default_factory=list, description="sinks ({sink: NAME, ...}) and renderers ({render: NAME, ...})")
+
+    @field_validator("runs")
+    @classmethod
+    def _names(cls, runs: dict[str, dict[str, Any]] | None) -> dict[str, dict[str, Any]] | None:
+        for name in runs or {}:
+            if not NAME.match(name):
+                raise ValueError(f"run name {name!r} must be letters, digits and _ (not starting with a digit)")
+        return runs
+
+
+@dataclass
+class RunSpec:
+    """One fully validated simulation: what to step, with what, for how long."""
+
+    name: str
+    scene: Scene
+    solver_cls: type
+    solver_params: BaseModel
+    gravity: float
+    dt: float
+    steps: int
+    overrides: dict[str, Any] = field(default_factory=dict)
+
+
+@dataclass
+class ExperimentSpec:
+    """A validated config: its runs and its outputs, with the source kept for later error positions."""
+
+    file: str
+    name: str
+    description: str
+    runs: list[RunSpec]
+    outputs: list[Output]
+    source: Source
+    resolved: dict[str, Any]
+
+    def run(self, name: str) -> RunSpec:
+        return next(r for r in self.runs if r.name == name)
+
+
+# ---------------------------------------------------------------------------- dotted paths and overrides
+
+
+def parse_key(text: str) -> Path:
+    """``scene.boxes[0].y`` or ``scene.boxes.0.y`` -> ``("scene", "boxes", 0, "y")``."""
+    out: list[str | int] = []
+    for part in text.split("."):
+        m = re.fullmatch(r"([^\[\]]*)((?:\[\d+\])*)", part)
+        if not m or (not m.group(1) and not m.group(2)):
+            raise ValueError(f"malformed key {text!r}")
+        if m.group(1):
+            out.append(int(m.group(1)) if m.group(1).isdigit() else m.group(1))
+        out.extend(int(i) for i in re.findall(r"\[(\d+)\]", m.group(2)))
+    return tuple(out)
+
+
+def _set(src: Source, path: Path, value: Any, marks: dict[Path, Mark]) -> None:
+    """Put ``value`` at ``path`` in ``src.data`` (creating mappings), re-pointing marks of the subtree."""
+    node = src.data
+    for i, part in enumerate(path[:-1]):
+        nxt = path[i + 1]
+        if isinstance(node, dict):
+            if not isinstance(node.get(part), (dict, list)):
+                node[part] = {} if isinstance(nxt, str) else []
+            node = node[part]
+        elif isinstance(node, list) and isinstance(part, int) and part < len(node):
+            node = node[part]
+        else:
+            raise KeyError(dotted(path[: i + 1]))
+    last = path[-1]
+    if isinstance(node, list):
+        if not isinstance(last, int) or last >= len(node):
+            raise KeyError(dotted(path))
+    elif not isinstance(node, dict) or not isinstance(last, str):
+        raise KeyError(dotted(path))
+    node[last] = copy.deepcopy(value)
+    for table in (src.values, src.keys):
+        for p in [p for p in table if p[: len(path)] == path]:
+            del table[p]
+    for rel, mark in marks.items():
+        src.values[path + rel] = mark
+    src.keys[path] = marks.get((), src.mark(path))
+
+
+def _subtree_marks(src: Source, path: Path) -> dict[Path, Mark]:
+    return {p[len(path):]: m for p, m in src.values.items() if p[: len(path)] == path}
+
+
+def apply_sets(src: Source, sets: list[str]) -> Source:
+    """Apply ``--set key.path=value`` overrides (values parsed as YAML) to a loaded config."""
+    out = Source(src.file, copy.deepcopy(src.data), dict(src.values), dict(src.keys))
+    for text in sets:
+        key, eq, raw = text.partition("=")
+        where = f"--set {text}"
+        if not eq or not key.strip():
+            raise ConfigError("expected key.path=value", file=where)
+        try:
+            path = parse_key(key.strip())
+        except ValueError as exc:
+            raise ConfigError(str(exc), file=where) from None
+        value = load_text(raw, where).data if raw.strip() else None
+        mark = Mark(where, 1, len(key) + 2)
+        try:
+            _set(out, path, value, {(): mark})
+        except KeyError as exc:
+            raise ConfigError(f"no such place in the config: {exc.args[0]}", file=where) from None
+    return out
+
+
+# ---------------------------------------------------------------------------- pydantic errors, located
+
+
+def _allowed(model: type[BaseModel], loc: tuple[Any, ...]) -> list[str]:
+    """The keys a mapping at ``loc`` accepts, read from the model's JSON schema (best effort)."""
+    schema = model.model_json_schema()
+    defs = schema.get("$defs", {})
+    node: dict[str, Any] = schema
+
+    def deref(n: dict[str, Any]) -> dict[str, Any]:
+        while "$ref" in n:
+            n = defs[n["$ref"].split("/")[-1]]
+        if "anyOf" in n:
+            n = next((deref(a) for a in n["anyOf"] if "properties" in deref(a) or "items" in deref(a)), n)
+        return n
+
+    for part in loc:
+        node = deref(node)
+        if isinstance(part, int):
+            node = node.get("items", {})
+        else:
+            node = node.get("properties", {}).get(part, {})
+    return sorted(deref(node).get("properties", {}))
+
+
+def located(exc: ValidationError, model: type[BaseModel], src: Source, prefix: Path) -> ConfigError:
+    """Turn the first pydantic error into a one-line ``ConfigError`` at the offending key."""
+    err = exc.errors(include_url=False)[0]
+    loc = tuple(p for p in err["loc"] if not (isinstance(p, str) and p.startswith("function-")))
+    path = prefix + loc
+    kind = err["type"]
+    if kind == "extra_forbidden":
+        allowed = _allowed(model, loc[:-1])
+        msg = f"unknown key {loc[-1]!r}" + (f"; allowed: {', '.join(allowed)}" if allowed else "")
+        return src.error(path, msg, key=True)
+    if kind == "missing":
+        return src.error(path[:-1], f"missing required key {loc[-1]!r}")
+    msg = err["msg"]
+    if msg.startswith("Value error, "):
+        msg = msg[len("Value error, "):]
+    value = err.get("input")
+    if isinstance(value, (int, float, str, bool)) and kind not in ("value_error", "assertion_error"):
+        msg += f" (got {value!r})"
+    return src.error(path, msg)
+
+
+def validate_model(model: type[BaseModel], data: Any, src: Source, prefix: Path) -> Any:
+    try:
+        return model.model_validate(data)
+    except ValidationError as exc:
+        raise located(exc, model, src, prefix) from None
+
+
+# ---------------------------------------------------------------------------- the experiment
+
+
+def _plugin(reg: registry.Registry[Any], section: dict[str, Any], key: str, src: Source, prefix: Path) -> Any:
+    """Look up ``section[key]`` in ``reg`` and validate the rest of the section with its params model."""
+    name = section.get(key)
+    if not isinstance(name, str):
+        raise src.error(prefix, f"missing {key!r}: the {reg.kind} plugin's name")
+    try:
+        cls = reg.get(name)
+    except ConfigError as exc:
+        raise src.error(prefix + (key,), exc.message) from None
+    rest = {k: v for k, v in section.items() if k != key}
+    return cls, validate_model(cls.Params, rest, src, prefix)
+
+
+def _variants(exp: ExperimentModel, src: Source) -> list[tuple[str, Source, dict[str, Any]]]:
+    """The runs of an experiment: (name, source with overrides applied, overrides)."""
+    if exp.runs is not None and exp.sweep is not None:
+        raise src.error(("sweep",), "give either 'runs' or 'sweep', not both", key=True)
+    plans: list[tuple[str, list[tuple[str, Any, Path]]]] = []
+    if exp.runs is not None:
+        if not exp.runs:
+            raise src.error(("runs",), "'runs' is empty")
+        for name, sets in exp.runs.items():
+            plans.append((name, [(k, v, ("runs", name, k)) for k, v in sets.items()]))
+    elif exp.sweep is not None:
+        keys = list(exp.sweep.grid)
+        for index, values in enumerate(itertools.product(*exp.sweep.grid.values())):
+            fill = {"index": str(index), **{k: _fmt(v) for k, v in zip(keys, values)}}
+            try:
+                name = re.sub(r"\{([^{}]+)\}", lambda m: fill[m.group(1)], exp.sweep.name)
+            except KeyError as exc:
+                raise src.error(("sweep", "name"), f"unknown field {{{exc.args[0]}}}; allowed: "
+                                                   f"{', '.join('{' + k + '}' for k in fill)}") from None
+            pos = [("sweep", "grid", k, i) for k, i in zip(keys, _grid_index(exp.sweep.grid, index))]
+            plans.append((name, [(k, v, p) for k, v, p in zip(keys, values, pos)]))
+    else:
+        plans.append(("main", []))
+    out, seen = [], set()
+    for name, sets in plans:
+        if not NAME.match(name):
+            raise src.error(("sweep", "name"), f"run name {name!r} is not letters, digits and _; change the template")
+        if name in seen:
+            raise src.error(("sweep", "name"), f"two runs are named {name!r}; put every grid key in the name")
+        seen.add(name)
+        variant = Source(src.file, copy.deepcopy(src.data), dict(src.values), dict(src.keys))
+        for key, value, origin in sets:
+            try:
+                path = parse_key(key)
+            except ValueError as exc:
+                raise src.error(origin, str(exc), key=True) from None
+            if not path or path[0] not in RUN_KEYS:
+                raise src.error(origin, f"only {', '.join(RUN_KEYS)} can be overridden per run", key=True)
+            try:
+                _set(variant, path, value, _subtree_marks(src, origin))
+            except KeyError as exc:
+                raise src.error(origin, f"no such place in the config: {exc.args[0]}", key=True) from None
+        out.append((name, variant, {k: v for k, v, _ in sets}))
+    return out
+
+
+def _grid_index(grid: dict[str, list[Any]], index: int) -> list[int]:
+    sizes = [len(v) for v in grid.values()]
+    out = []
+    for size in reversed(sizes):
+        out.append(index % size)
+        index //= size
+    return out[::-1]
+
+
+def _fmt(value: Any) -> str:
+    text = repr(value) if isinstance(value, float) else str(value)
+    return text.replace("-", "m").replace(".", "p")
+
+
+def _resolve_run(name: str, src: Source, overrides: dict[str, Any]) -> RunSpec:
+    data = {k: v for k, v in src.data.items() if k in RUN_KEYS}
+    base = validate_model(ExperimentModel, data, src, ())
+    if base.scene is None or base.solver is None:
+        missing = "scene" if base.scene is None else "solver"
+        raise src.error((), f"a run needs a {missing!r} section")
+    scene_cls, scene_params = _plugin(registry.scenes, base.scene, "name", src, ("scene",))
+    solver_cls, solver_params = _plugin(registry.solvers, base.solver, "name", src, ("solver",))
+    scene = scene_cls(scene_params)
+    if scene.model not in solver_cls.models:
+        raise src.error(("solver", "name"), f"solver {solver_cls.plugin_name!r} steps {', '.join(solver_cls.models)}"
+                                            f" scenes, not {scene.model!r}")
+    if base.steps == 0:
+        raise src.error(("steps",), "a run needs 'steps' > 0")
+    return RunSpec(name, scene, solver_cls, solver_params, base.gravity, base.dt, base.steps, overrides)
+
+
+def build(src: Source) -> ExperimentSpec:
+    """Validate a loaded config completely, without running anything."""
+    if not isinstance(src.data, dict):
+        raise src.error((), "a config is a mapping of keys (description, scene, solver, steps, outputs, ...)")
+    exp = validate_model(ExperimentModel, src.data, src, ())
+    runs: list[RunSpec] = []
+    if exp.scene is not None or exp.solver is not None or exp.runs or exp.sweep:
+        runs = [_resolve_run(name, variant, sets) for name, variant, sets in _variants(exp, src)]
+    outputs: list[Output] = []
+    for i, section in enumerate(exp.outputs):
+        kinds = [k for k in ("sink", "render") if k in section]
+        if len(kinds) != 1:
+            raise src.error(("outputs", i), "each output names exactly one of 'sink: NAME' or 'render: NAME'")
+        reg = registry.sinks if kinds[0] == "sink" else registry.renderers
+        cls, params = _plugin(reg, section, kinds[0], src, ("outputs", i))
+        outputs.append(cls(params))
+    spec = ExperimentSpec(src.file, FsPath(src.file).stem, exp.description, runs, outputs, src,
+                          resolved=_resolved(exp, runs))
+    written: dict[str, int] = {}
+    for i, output in enumerate(outputs):
+        prefix: Path = ("outputs", i)
+        if output.needs_runs and not runs:
+            raise src.error(prefix, f"{output.plugin_name!r} needs a simulation: add scene, solver and steps")
+        output.check(spec, lambda path, msg, prefix=prefix: src.error(prefix + path, msg))
+        for name in output.files():
+            if name in written:
+                raise src.error(prefix, f"{name!r} is also written by outputs[{written[name]}]")
+            written[name] = i
+    return spec
+
+
+def _resolved(exp: ExperimentModel, runs: list[RunSpec]) -> dict[str, Any]:
+    """The config with every default filled in, per run: what was actually simulated."""
+    return {
+        "description": exp.description,
+        "runs": [{"name": r.name, "scene": {"name": r.scene.plugin_name, **r.scene.params.model_dump(mode="json")},
+                  "solver": {"name": r.solver_cls.plugin_name, **r.solver_params.model_dump(mode="json")},
+                  "gravity": r.gravity, "dt": r.dt, "steps": r.steps} for r in runs],
+        "outputs": exp.outputs,
+    }
+
+
+def nearest_plugins(config: str) -> FsPath | None:
+    """The ``plugins/`` folder nearest to a config: in its folder or the closest folder above it."""
+    for folder in FsPath(config).resolve().parents:
+        if (folder / "plugins").is_dir():
+            return folder / "plugins"
+    return None
+
+
+def load(path: str, sets: list[str] | None = None, plugins: FsPath | None = None) -> ExperimentSpec:
+    """Load, override and validate one config file; local plugins (``--plugins`` or nearest) come first."""
+    folder = plugins if plugins is not None else nearest_plugins(path)
+    if folder is not None:
+        registry.load_local_plugins(folder)
+    src = load_file(path)
+    if sets:
+        src = apply_sets(src, sets)
+    return build(src)
+
+
+def config_files(paths: list[str]) -> list[str]:
+    """Expand the command line: a YAML file as is, a folder to the YAML files directly in it, in name order."""
+    out: list[str] = []
+    for p in paths:
+        fp = FsPath(p)
+        if fp.is_dir():
+            found = sorted(str(f) for f in fp.iterdir() if f.suffix in (".yaml", ".yml") and f.is_file())
+            if not found:
+                raise ConfigError("no .yaml files in this folder", file=p)
+            out.extend(found)
+        elif fp.is_file():
+            out.append(p)
+        else:
+            raise ConfigError("no such file or folder", file=p)
+    return out

@@ -1,0 +1,37 @@
+"""The two kinds of failure stackx reports without a traceback.
+
+``ConfigError`` is the user's input being wrong (exit code 2): it names the file, the line:column and the
+key. ``RunError`` is a simulation or plugin failing while running (exit code 1): it names where.
+"""
+
+from __future__ import annotations
+
+
+class StackxError(Exception):
+    """Base of every error stackx reports as a short message."""
+
+    exit_code = 1
+
+
+class ConfigError(StackxError):
+    """Bad input: a config, a ``--set`` override, a plugin name or a command-line value."""
+
+    exit_code = 2
+
+    def __init__(self, message: str, *, file: str | None = None, line: int | None = None,
+                 col: int | None = None, key: str | None = None) -> None:
+        self.message, self.file, self.line, self.col, self.key = message, file, line, col, key
+        super().__init__(str(self))
+
+    def __str__(self) -> str:
+        where = self.file or "<input>"
+        if self.line is not None:
+            where += f":{self.line}:{self.col or 1}"
+        key = f" {self.key}:" if self.key else ""
+        return f"{where}:{key} {self.message}"
+
+
+class RunError(StackxError):
+    """A run that failed while stepping or writing (blow-up, a plugin raising)."""
+
+    exit_code = 1

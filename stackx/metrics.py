@@ -1,0 +1,50 @@
+"""Measures of a finished run, computed from its recorded states.
+
+Every measure is deterministic (no clocks), so files built from them are byte-identical from run to run.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from stackx.state import ColumnState
+
+MOTION_WINDOW = 60  # steps over which the final motion is measured
+
+SCALARS = {
+    "max_depth": "largest contact penetration in the final state (m)",
+    "peak_depth": "largest contact depth after any step of the run (m)",
+    "rms_motion": f"RMS of the boxes' actual motion (y_now - y_prev)/dt over the last {MOTION_WINDOW} steps (m/s)",
+}
+VECTORS = {
+    "y": "final centre heights, bottom box first (m)",
+    "v": "final velocities (m/s)",
+    "depth": "final penetration of each contact, 0 = floor, k = boxes k-1 and k (m, 0 when apart)",
+}
+
+
+def motion_steps(steps: int) -> range:
+    """The steps whose states ``rms_motion`` needs: the last ``MOTION_WINDOW`` + 1."""
+    return range(max(0, steps - MOTION_WINDOW), steps + 1)
+
+
+def rms_motion(frames: dict[int, ColumnState], steps: int, dt: float) -> float:
+    """RMS over boxes and steps of ``(y_k - y_{k-1})/dt`` for the last steps (stored velocities do not count)."""
+    window = motion_steps(steps)
+    if len(window) < 2:
+        return 0.0
+    ys = np.stack([frames[k].y[0] for k in window])
+    return float(np.sqrt(np.mean((np.diff(ys, axis=0) / dt) ** 2)))
+
+
+def measure(final: ColumnState, frames: dict[int, ColumnState], steps: int, dt: float) -> dict[str, float | list[float]]:
+    """Every named measure of one run (a batch of one)."""
+    depth = final.penetration()[0]
+    return {
+        "y": final.y[0].tolist(),
+        "v": final.v[0].tolist(),
+        "depth": depth.tolist(),
+        "max_depth": float(depth.max()),
+        "peak_depth": float(max(final.peak_depth[0], 0.0)),
+        "rms_motion": rms_motion(frames, steps, dt),
+    }

@@ -1,0 +1,1 @@
+"""Renderer plugins: pictures and pages drawn from recorded states."""

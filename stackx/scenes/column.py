@@ -1,0 +1,86 @@
+"""The column scene: boxes on a floor, listed one by one or generated as an evenly spaced stack."""
+
+from __future__ import annotations
+
+
+from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
+
+from stackx.registry import scenes
+from stackx.scenes import Scene
+
+
+class Box(BaseModel):
+    """One box of the column."""
+
+    model_config = ConfigDict(extra="forbid")
+    y: float = Field(description="centre height at the start (m)", allow_inf_nan=False)
+    v: float = Field(0.0, description="vertical velocity at the start (m/s, up is positive)", allow_inf_nan=False)
+    mass: float = Field(1.0, gt=0, allow_inf_nan=False, description="mass (kg); the solver uses 1/mass")
+    half_height: float = Field(0.5, gt=0, allow_inf_nan=False, description="half of the box's height (m)")
+
+
+class Stack(BaseModel):
+    """``count`` equal boxes, the bottom one centred at ``y0``, the others ``spacing`` apart."""
+
+    model_config = ConfigDict(extra="forbid")
+    count: int = Field(gt=0, le=1_000_000, description="number of boxes")
+    y0: float = Field(allow_inf_nan=False, description="centre height of the bottom box (m)")
+    spacing: float = Field(gt=0, allow_inf_nan=False, description="distance between neighbouring centres (m)")
+    v: float = Field(0.0, allow_inf_nan=False, description="velocity of every box at the start (m/s)")
+    mass: float = Field(1.0, gt=0, allow_inf_nan=False, description="mass of every box (kg)")
+    half_height: float = Field(0.5, gt=0, allow_inf_nan=False, description="half-height of every box (m)")
+
+
+class ColumnParams(BaseModel):
+    """Either ``boxes`` (a list, bottom first) or ``stack`` (a generated column)."""
+
+    model_config = ConfigDict(extra="forbid")
+    boxes: list[Box] | None = Field(None, min_length=1, description="the boxes, bottom first")
+    stack: Stack | None = Field(None, description="an evenly spaced column of equal boxes")
+
+    @model_validator(mode="after")
+    def _one_of(self) -> ColumnParams:
+        if (self.boxes is None) == (self.stack is None):
+            raise ValueError("give exactly one of 'boxes' (a list) or 'stack' (count, y0, spacing)")
+        return self
+
+    @field_validator("boxes")
+    @classmethod
+    def _bottom_up(cls, boxes: list[Box] | None) -> list[Box] | None:
+        for i in range(1, len(boxes or [])):
+            if not boxes[i].y > boxes[i - 1].y:  # type: ignore[index]
+                raise ValueError(f"boxes are listed bottom first: box {i} (y={boxes[i].y}) "  # type: ignore[index]
+                                 f"must be above box {i - 1} (y={boxes[i - 1].y})")  # type: ignore[index]
+        return boxes
+
+    def box_list(self) -> list[Box]:
+        if self.boxes is not None:
+            return self.boxes
+        s = self.stack
+        assert s is not None
+        return [Box(y=s.y0 + i * s.spacing, v=s.v, mass=s.mass, half_height=s.half_height) for i in range(s.count)]
+
+
+@scenes.register("column")
+class Column(Scene):
+    """Boxes stacked bottom-up on a floor at y = 0, moving only vertically: the lab's scenes."""
+
+    Params = ColumnParams
+    model = "column"
+
+    def build(self):  # type: ignore[override]
+        import numpy as np
+
+        from stackx.state import ColumnState
+
+        boxes = self.params.box_list()
+        row = lambda f: np.array([[f(b) for b in boxes]], dtype=np.float64)  # noqa: E731
+        return ColumnState(row(lambda b: b.y), row(lambda b: b.v), row(lambda b: 1.0 / b.mass),
+                           row(lambda b: b.half_height))
+
+    def size(self) -> int:
+        """Number of boxes, known without building arrays (for checks before stepping)."""
+        p = self.params
+        return len(p.boxes) if p.boxes is not None else p.stack.count
+
+

@@ -1,0 +1,1 @@
+"""Sink plugins: measured numbers written to files."""

@@ -1,0 +1,59 @@
+"""``key=value`` text files, one line per key in the order the config lists them.
+
+Values are expressions over the runs' measures (see ``stackx.expr``) and are written with Python's
+``repr``, the shortest decimal that reads back as the same float.
+"""
+
+from __future__ import annotations
+
+from pydantic import BaseModel, ConfigDict, Field, field_validator
+
+from stackx.expr import ExprError, evaluate
+from stackx.outputs import Sink
+from stackx.registry import sinks
+
+
+class KeyValueParams(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+    path: str = Field(description="text file to write")
+    values: dict[str, str] = Field(min_length=1, description="key -> expression, e.g. y1: y[0], "
+                                   "improved: sink.depth[0] - fixed.depth[0]")
+
+    @field_validator("values", mode="before")
+    @classmethod
+    def _as_text(cls, values: object) -> object:
+        if isinstance(values, dict):
+            return {k: str(v) if isinstance(v, (int, float)) and not isinstance(v, bool) else v
+                    for k, v in values.items()}
+        return values
+
+    @field_validator("values")
+    @classmethod
+    def _keys(cls, values: dict[str, str]) -> dict[str, str]:
+        for key in values:
+            if not key or any(c in key for c in "=\n\r"):
+                raise ValueError(f"key {key!r} cannot be empty or hold '=' or a line break")
+        return values
+
+
+@sinks.register("keyvalue")
+class KeyValue(Sink):
+    """key=value lines, each value an expression over the runs' measures."""
+
+    Params = KeyValueParams
+
+    def _runs(self, spec) -> dict[str, int]:  # type: ignore[no-untyped-def]
+        return {r.name: r.scene.size() for r in spec.runs}
+
+    def check(self, spec, fail) -> None:  # type: ignore[no-untyped-def]
+        for key, text in self.params.values.items():
+            try:
+                evaluate(text, self._runs(spec))
+            except ExprError as exc:
+                raise fail(("values", key), str(exc)) from None
+
+    def write(self, result, out) -> None:  # type: ignore[no-untyped-def]
+        measures = {r.name: r.measures for r in result.runs}
+        lines = [f"{key}={evaluate(text, self._runs(result.spec), measures)!r}"
+                 for key, text in self.params.values.items()]
+        out.write_text(self.params.path, "\n".join(lines) + "\n")

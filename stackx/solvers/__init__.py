@@ -1,0 +1,1 @@
+"""Solver plugins; ``stackx.solvers.base`` holds what they share."""

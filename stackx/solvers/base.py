@@ -1,0 +1,51 @@
+"""What every solver plugin has: a params model, the models it steps, and ``advance``.
+
+A solver is built once per batch: it receives one validated params object per batch row (the variants of a
+sweep may differ in any parameter) and packs them into arrays for its stepping loop. ``advance`` moves the
+state forward by a number of steps in place and must call ``stackx.monitor.observe`` after every step.
+"""
+
+from __future__ import annotations
+
+from typing import Any, ClassVar
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field
+
+from stackx.state import ColumnState
+
+
+class Correction(BaseModel):
+    """Position correction after the velocity solve, the lab's ``correct()``."""
+
+    model_config = ConfigDict(extra="forbid")
+    slop: float = Field(0.01, ge=0, allow_inf_nan=False,
+                        description="overlap left alone (m): 0 makes a tiny correction every step and jitters")
+    percent: float = Field(0.2, gt=0, le=1, allow_inf_nan=False,
+                           description="share of the overlap beyond slop undone per step: 1.0 oscillates, "
+                                       "small values settle slowly")
+
+
+class Solver:
+    """Base of solver plugins."""
+
+    Params: ClassVar[type[BaseModel]]
+    models: ClassVar[tuple[str, ...]] = ("column",)
+    plugin_name: ClassVar[str]
+
+    def __init__(self, params: list[Any], gravity: np.ndarray, dt: np.ndarray) -> None:
+        self.params = params
+        self.gravity = np.ascontiguousarray(gravity, dtype=np.float64)
+        self.dt = np.ascontiguousarray(dt, dtype=np.float64)
+
+    def column(self, name: str, default: float = 0.0) -> np.ndarray:
+        """One float per batch row from the params (``a.b`` reaches into sub-models; None gives default)."""
+        out = []
+        for p in self.params:
+            for part in name.split("."):
+                p = getattr(p, part) if p is not None else None
+            out.append(default if p is None else float(p))
+        return np.array(out, dtype=np.float64)
+
+    def advance(self, state: ColumnState, steps: int) -> None:
+        raise NotImplementedError

@@ -1,0 +1,120 @@
+"""YAML loading that remembers where every value came from.
+
+Configs are edited by hand, so every error must point at a line and column. PyYAML's composer keeps a mark
+on each node; this module turns the node tree into plain Python data plus a table from key paths to marks.
+Duplicate keys, which PyYAML silently lets the last one win, are refused.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import yaml
+
+Path = tuple[str | int, ...]
+
+
+@dataclass(frozen=True)
+class Mark:
+    """A 1-based line and column in a named source."""
+
+    file: str
+    line: int
+    col: int
+
+
+@dataclass
+class Source:
+    """Data loaded from one YAML document, with the mark of each value and of each mapping key."""
+
+    file: str
+    data: Any
+    values: dict[Path, Mark] = field(default_factory=dict)
+    keys: dict[Path, Mark] = field(default_factory=dict)
+
+    def mark(self, path: Path, *, key: bool = False) -> Mark:
+        """The mark of ``path`` (its key when ``key``), or of its nearest ancestor that has one."""
+        table = self.keys if key else self.values
+        for end in range(len(path), -1, -1):
+            hit = table.get(path[:end]) or self.values.get(path[:end])
+            if hit:
+                return hit
+        return Mark(self.file, 1, 1)
+
+    def error(self, path: Path, message: str, *, key: bool = False) -> "ConfigError":
+        """A ``ConfigError`` located at ``path``."""
+        from stackx.errors import ConfigError
+
+        m = self.mark(path, key=key)
+        return ConfigError(message, file=m.file, line=m.line, col=m.col, key=dotted(path) or None)
+
+
+def dotted(path: Path) -> str:
+    """``("solver", "correction", "slop")`` -> ``solver.correction.slop``; list indices as ``[i]``."""
+    out = ""
+    for part in path:
+        out += f"[{part}]" if isinstance(part, int) else (f".{part}" if out else str(part))
+    return out
+
+
+def _mark(file: str, node: yaml.Node) -> Mark:
+    return Mark(file, node.start_mark.line + 1, node.start_mark.column + 1)
+
+
+def load_text(text: str, file: str) -> Source:
+    """Parse one YAML document; raise ``ConfigError`` with the position of any syntax error."""
+    from stackx.errors import ConfigError
+
+    loader = yaml.SafeLoader(text)
+    try:
+        root = loader.get_single_node()
+        src = Source(file, None)
+        src.data = {} if root is None else _build(loader, root, (), src)
+        return src
+    except yaml.MarkedYAMLError as exc:
+        mark = exc.problem_mark or exc.context_mark
+        line, col = (mark.line + 1, mark.column + 1) if mark else (None, None)
+        problem = exc.problem or exc.context or "invalid YAML"
+        raise ConfigError(f"YAML syntax error: {problem}", file=file, line=line, col=col) from None
+    except yaml.YAMLError as exc:
+        raise ConfigError(f"YAML error: {exc}", file=file) from None
+    finally:
+        loader.dispose()
+
+
+def load_file(path: str) -> Source:
+    """Read and parse a YAML file (errors name the file)."""
+    from stackx.errors import ConfigError
+
+    try:
+        with open(path, encoding="utf-8") as fh:
+            text = fh.read()
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ConfigError(f"cannot read: {exc}", file=path) from None
+    return load_text(text, path)
+
+
+def _build(loader: yaml.SafeLoader, node: yaml.Node, path: Path, src: Source) -> Any:
+    from stackx.errors import ConfigError
+
+    src.values[path] = _mark(src.file, node)
+    if isinstance(node, yaml.MappingNode):
+        loader.flatten_mapping(node)
+        out: dict[Any, Any] = {}
+        for knode, vnode in node.value:
+            key = loader.construct_object(knode, deep=True)
+            if not isinstance(key, (str, int, float, bool)) or key is None:
+                raise ConfigError("mapping keys must be plain scalars", file=src.file,
+                                  line=knode.start_mark.line + 1, col=knode.start_mark.column + 1)
+            key = str(key) if not isinstance(key, str) else key
+            if key in out:
+                m = _mark(src.file, knode)
+                raise ConfigError(f"duplicate key {key!r}", file=src.file, line=m.line, col=m.col,
+                                  key=dotted(path + (key,)))
+            src.keys[path + (key,)] = _mark(src.file, knode)
+            out[key] = _build(loader, vnode, path + (key,), src)
+        return out
+    if isinstance(node, yaml.SequenceNode):
+        return [_build(loader, item, path + (i,), src) for i, item in enumerate(node.value)]
+    return loader.construct_object(node, deep=True)
