@@ -53,4 +53,4 @@ class SOR(Solver):
                 integrate_positions(y, v, self.dt[b])
                 if p.correction is not None:
                     correct_positions(y, inv, half, p.correction.slop, p.correction.percent)
-                observe(y, half, state.peak_depth, b)
+                observe(y, v, half, *state.monitors(), b)

@@ -32,3 +32,7 @@ def kernel(fn: F) -> F:
     import numba
 
     return numba.njit(cache=True, fastmath=False)(fn)  # type: ignore[no-any-return]
+
+
+prange = range
+"""Loop over independent batch rows; ``numba.prange`` when kernels are compiled in parallel."""

@@ -14,6 +14,8 @@ MOTION_WINDOW = 60  # steps over which the final motion is measured
 SCALARS = {
     "max_depth": "largest contact penetration in the final state (m)",
     "peak_depth": "largest contact depth after any step of the run (m)",
+    "reach": "largest depth after any step as a share of the thinner box's half-height (>1: passed half-way)",
+    "launch": "fastest upward velocity of a box after it first touched something (m/s)",
     "rms_motion": f"RMS of the boxes' actual motion (y_now - y_prev)/dt over the last {MOTION_WINDOW} steps (m/s)",
 }
 VECTORS = {
@@ -46,5 +48,7 @@ def measure(final: ColumnState, frames: dict[int, ColumnState], steps: int, dt: 
         "depth": depth.tolist(),
         "max_depth": float(depth.max()),
         "peak_depth": float(max(final.peak_depth[0], 0.0)),
+        "reach": float(max(final.reach[0], 0.0)),
+        "launch": float(max(final.launch[0], 0.0)),
         "rms_motion": rms_motion(frames, steps, dt),
     }

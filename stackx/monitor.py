@@ -1,7 +1,8 @@
 """Measures taken inside the stepping loop, after every step.
 
 Written as plain loops over one batch row so that the same function runs in the readable Python path and
-inside a compiled stepping loop.
+inside a compiled stepping loop. Solvers call ``observe`` after every step with the velocity that moved
+the boxes (position-based solvers pass the velocity they derive from positions).
 """
 
 from __future__ import annotations
@@ -10,14 +11,38 @@ import numpy as np
 
 from stackx.kernel import kernel
 
+TOUCH = 0.0  # a contact whose depth is above this counts as touching
+
 
 @kernel
-def observe(y: np.ndarray, half: np.ndarray, peak: np.ndarray, b: int) -> None:
-    """Raise ``peak[b]`` to the largest contact depth of row ``y`` (floor contact and every pair)."""
-    worst = half[0] - y[0]
-    for i in range(y.shape[0] - 1):
+def observe(y: np.ndarray, v: np.ndarray, half: np.ndarray, peak: np.ndarray, reach: np.ndarray,
+            touched: np.ndarray, launch: np.ndarray, b: int) -> None:
+    """Update the monitors of batch row ``b`` after a step.
+
+    - ``peak[b]``: the largest contact depth so far (m);
+    - ``reach[b]``: the largest depth as a share of the thinner box's half-height; above 1 a box has passed
+      half-way into its neighbour (or its centre is below the floor);
+    - ``touched[b, i]``: box ``i`` has touched something (a contact with positive depth) at some step;
+    - ``launch[b]``: the fastest upward velocity of a box that had already touched something (m/s).
+    """
+    n = y.shape[0]
+    d = half[0] - y[0]
+    if d > peak[b]:
+        peak[b] = d
+    if d / half[0] > reach[b]:
+        reach[b] = d / half[0]
+    if d > TOUCH:
+        touched[b, 0] = True
+    for i in range(n - 1):
         d = (half[i] + half[i + 1]) - (y[i + 1] - y[i])
-        if d > worst:
-            worst = d
-    if worst > peak[b]:
-        peak[b] = worst
+        if d > peak[b]:
+            peak[b] = d
+        r = d / min(half[i], half[i + 1])
+        if r > reach[b]:
+            reach[b] = r
+        if d > TOUCH:
+            touched[b, i] = True
+            touched[b, i + 1] = True
+    for i in range(n):
+        if touched[b, i] and v[i] > launch[b]:
+            launch[b] = v[i]

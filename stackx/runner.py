@@ -74,15 +74,10 @@ def _run_batch(spec: ExperimentSpec, runs: list[RunSpec], progress: Progress | N
         frames[stop] = state.copy()
     out = []
     for b, run in enumerate(runs):
-        row = {k: _row(s, b) for k, s in frames.items()}
+        row = {k: s.row(b) for k, s in frames.items()}
         final = row[steps]
         out.append(RunResult(run, final, row, measure(final, row, steps, run.dt), wall / len(runs)))
     return out
-
-
-def _row(state: ColumnState, b: int) -> ColumnState:
-    return ColumnState(state.y[b:b + 1], state.v[b:b + 1], state.inv_mass[b:b + 1], state.half[b:b + 1],
-                       state.peak_depth[b:b + 1])
 
 
 def _check_finite(spec: ExperimentSpec, runs: list[RunSpec], state: ColumnState, done: int, n: int,

@@ -15,8 +15,9 @@ import numpy as np
 class ColumnState:
     """Heights, velocities, inverse masses and half-heights, each shaped ``(batch, boxes)``.
 
-    ``peak_depth`` (shape ``(batch,)``) is the largest contact depth seen after any step so far; solvers
-    update it through ``stackx.monitor.observe`` so that a compiled run does not return to Python per step.
+    The monitors (see ``stackx.monitor.observe``) are updated by solvers after every step, so a compiled run
+    does not return to Python per step: ``peak_depth`` and ``reach`` ``(batch,)``, ``touched``
+    ``(batch, boxes)`` and ``launch`` ``(batch,)``.
     """
 
     y: np.ndarray
@@ -24,12 +25,28 @@ class ColumnState:
     inv_mass: np.ndarray
     half: np.ndarray
     peak_depth: np.ndarray = field(default=None)  # type: ignore[assignment]
+    reach: np.ndarray = field(default=None)  # type: ignore[assignment]
+    touched: np.ndarray = field(default=None)  # type: ignore[assignment]
+    launch: np.ndarray = field(default=None)  # type: ignore[assignment]
 
     def __post_init__(self) -> None:
         for name in ("y", "v", "inv_mass", "half"):
             setattr(self, name, np.ascontiguousarray(getattr(self, name), dtype=np.float64))
+        d = self.depths()
         if self.peak_depth is None:
-            self.peak_depth = np.maximum(self.depths().max(axis=1), 0.0)
+            self.peak_depth = np.maximum(d.max(axis=1), 0.0)
+        if self.reach is None:
+            thinner = np.concatenate([self.half[:, :1], np.minimum(self.half[:, :-1], self.half[:, 1:])], axis=1)
+            self.reach = np.maximum((d / thinner).max(axis=1), 0.0)
+        if self.touched is None:
+            self.touched = np.zeros(self.y.shape, dtype=np.bool_)
+            self.touched[:, :] = d > 0.0
+            self.touched[:, :-1] |= d[:, 1:] > 0.0
+        if self.launch is None:
+            self.launch = np.full(self.batch, -np.inf)
+
+    MONITORS = ("peak_depth", "reach", "touched", "launch")
+    FIELDS = ("y", "v", "inv_mass", "half", *MONITORS)
 
     @property
     def batch(self) -> int:
@@ -53,12 +70,18 @@ class ColumnState:
         """Contact depths clipped at zero: a separated contact has no penetration."""
         return np.maximum(self.depths(), 0.0)
 
+    def monitors(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """The arguments ``observe`` takes after ``y, v, half``."""
+        return self.peak_depth, self.reach, self.touched, self.launch
+
     def copy(self) -> ColumnState:
-        return ColumnState(self.y.copy(), self.v.copy(), self.inv_mass.copy(), self.half.copy(),
-                           self.peak_depth.copy())
+        return ColumnState(*(getattr(self, k).copy() for k in self.FIELDS))
+
+    def row(self, b: int) -> ColumnState:
+        """Batch row ``b`` as a batch of one (views, not copies)."""
+        return ColumnState(*(getattr(self, k)[b:b + 1] for k in self.FIELDS))
 
     @staticmethod
     def concat(states: list[ColumnState]) -> ColumnState:
         """Stack same-shaped states along the batch axis."""
-        return ColumnState(*(np.concatenate([getattr(s, k) for s in states])
-                             for k in ("y", "v", "inv_mass", "half", "peak_depth")))
+        return ColumnState(*(np.concatenate([getattr(s, k) for s in states]) for k in ColumnState.FIELDS))

@@ -15,7 +15,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, field_validator
 
 from stackx.correct import correct
-from stackx.kernel import kernel
+from stackx.kernel import kernel, prange
 from stackx.monitor import observe
 from stackx.registry import solvers
 from stackx.solvers.base import Correction, Solver
@@ -78,9 +78,10 @@ def correct_positions(y: np.ndarray, inv: np.ndarray, half: np.ndarray, slop: fl
 @kernel
 def pgs_advance(y: np.ndarray, v: np.ndarray, inv: np.ndarray, half: np.ndarray, g: np.ndarray,
                 dt: np.ndarray, iterations: np.ndarray, slop: np.ndarray, percent: np.ndarray,
-                corrects: np.ndarray, peak: np.ndarray, steps: int) -> None:
+                corrects: np.ndarray, peak: np.ndarray, reach: np.ndarray, touched: np.ndarray,
+                launch: np.ndarray, steps: int) -> None:
     """``steps`` lab steps of every batch row, in place."""
-    for b in range(y.shape[0]):
+    for b in prange(y.shape[0]):
         for _ in range(steps):
             gravity(v[b], g[b], dt[b])
             for _ in range(iterations[b]):
@@ -88,7 +89,7 @@ def pgs_advance(y: np.ndarray, v: np.ndarray, inv: np.ndarray, half: np.ndarray,
             integrate_positions(y[b], v[b], dt[b])
             if corrects[b]:
                 correct_positions(y[b], inv[b], half[b], slop[b], percent[b])
-            observe(y[b], half[b], peak, b)
+            observe(y[b], v[b], half[b], peak, reach, touched, launch, b)
 
 
 @solvers.register("pgs")
@@ -106,4 +107,4 @@ class PGS(Solver):
 
     def advance(self, state: ColumnState, steps: int) -> None:
         pgs_advance(state.y, state.v, state.inv_mass, state.half, self.gravity, self.dt, self.iterations,
-                    self.slop, self.percent, self.corrects, state.peak_depth, steps)
+                    self.slop, self.percent, self.corrects, *state.monitors(), steps)
