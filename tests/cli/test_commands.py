@@ -1,0 +1,99 @@
+"""The commands besides ``run``: version, help, validate, plugins, schema, serve."""
+
+from __future__ import annotations
+
+import json
+import socket
+import subprocess
+import sys
+import time
+import urllib.request
+from pathlib import Path
+
+from tests.conftest import CONFIGS, REPO, Cli
+
+
+def test_version(cli: Cli) -> None:
+    import stackx
+
+    done = cli("--version")
+    assert done.returncode == 0
+    assert done.stdout.strip() == f"stackx {stackx.__version__}"
+
+
+def test_help_does_not_import_numpy() -> None:
+    code = ("import sys; from stackx.cli import app\n"
+            "try:\n    app(['--help'])\nexcept SystemExit:\n    pass\n"
+            "heavy = [m for m in ('numpy', 'numba', 'pydantic') if m in sys.modules]\n"
+            "print('HEAVY', heavy)")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=REPO)
+    assert "Usage" in done.stdout
+    assert done.stdout.strip().splitlines()[-1] == "HEAVY []"
+
+
+def test_validate_names_runs_and_outputs(cli: Cli) -> None:
+    done = cli("validate", CONFIGS)
+    assert done.returncode == 0, done.stderr
+    lines = done.stdout.strip().splitlines()
+    assert [ln.split()[1].rstrip(":") for ln in lines] == [str(p) for p in sorted(CONFIGS.glob("*.yaml"))]
+    assert any("05-iters.yaml: 3 run(s)" in ln for ln in lines)
+
+
+def test_plugins_table_lists_kinds_and_sources(cli: Cli) -> None:
+    done = cli("plugins", env={"COLUMNS": "200"})
+    assert done.returncode == 0, done.stderr
+    rows = {tuple(cell.strip() for cell in ln.split("│")[1:4]) for ln in done.stdout.splitlines() if "│" in ln}
+    for row in [("scene", "column", "built-in"), ("solver", "pgs", "built-in"), ("renderer", "frames", "built-in"),
+                ("sink", "keyvalue", "built-in"), ("solver", "sor", "plugins/sor.py")]:
+        assert row in rows, rows
+
+
+def test_schema_includes_plugin_parameters(cli: Cli, tmp_path: Path) -> None:
+    target = tmp_path / "schema.json"
+    done = cli("schema", "--plugins", REPO / "plugins", "--out", target)
+    assert done.returncode == 0, done.stderr
+    schema = json.loads(target.read_text())
+    solvers = {s["properties"]["name"]["const"]: s for s in schema["properties"]["solver"]["oneOf"]}
+    assert {"pgs", "sor"} <= set(solvers)
+    assert "iterations" in solvers["pgs"]["properties"]
+    assert "omega" in solvers["sor"]["properties"]
+    outputs = schema["properties"]["outputs"]["items"]["oneOf"]
+    kinds = {("sink" if "sink" in o["properties"] else "render",
+              (o["properties"].get("sink") or o["properties"]["render"])["const"]) for o in outputs}
+    assert {("sink", "keyvalue"), ("render", "frames"), ("render", "drawing")} <= kinds
+    assert schema["additionalProperties"] is False
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])
+
+
+def test_serve_shows_the_player(cli: Cli, tmp_path: Path) -> None:
+    out = tmp_path / "out"
+    assert cli("run", CONFIGS / "06-stack.yaml", "--out", out, "-q").returncode == 0
+    port = _free_port()
+    server = subprocess.Popen([sys.executable, "-m", "stackx", "serve", str(out), "--port", str(port)],
+                              stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        for _ in range(100):
+            try:
+                page = urllib.request.urlopen(f"http://127.0.0.1:{port}/", timeout=2).read().decode()
+                break
+            except OSError:
+                time.sleep(0.1)
+        else:
+            raise AssertionError("server did not answer")
+        assert page == (out / "index.html").read_text()
+        png = urllib.request.urlopen(f"http://127.0.0.1:{port}/f11.png", timeout=2).read()
+        assert png == (out / "f11.png").read_bytes()
+    finally:
+        server.terminate()
+        server.wait(timeout=10)
+
+
+def test_serve_refuses_a_missing_folder(cli: Cli, tmp_path: Path) -> None:
+    done = cli("serve", tmp_path / "nowhere")
+    assert done.returncode == 2
+    assert "no such folder" in done.stderr

@@ -1,0 +1,44 @@
+"""Value expressions: arithmetic over measures, refused when they name what does not exist."""
+
+from __future__ import annotations
+
+import pytest
+
+from stackx.expr import ExprError, evaluate
+
+MEASURES = {"a": {"y": [1.0, 2.0, 3.5], "max_depth": 0.25, "depth": [0.0, 0.1, 0.2]},
+            "b": {"y": [0.5, 1.5, 2.0], "max_depth": 0.5, "depth": [0.3, 0.0, 0.0]}}
+RUNS = {"a": 3, "b": 3}
+
+
+@pytest.mark.parametrize("text, value", [
+    ("a.y[0] + b.y[-1]", 3.0),
+    ("(a.max_depth - b.max_depth) * 4 / 2", -0.5),
+    ("max(a.depth[1], b.depth[0], 0.2)", 0.3),
+    ("abs(-a.y[2])", 3.5),
+    ("min(a.y[1], 7)", 2.0),
+    ("-1.5e-3", -0.0015),
+])
+def test_evaluates(text: str, value: float) -> None:
+    assert evaluate(text, RUNS, MEASURES) == pytest.approx(value, abs=1e-15)
+
+
+def test_single_run_needs_no_prefix() -> None:
+    assert evaluate("y[1] - max_depth", {"main": 3}, {"main": MEASURES["a"]}) == 1.75
+
+
+@pytest.mark.parametrize("text, words", [
+    ("y[0]", "needs a run name"),
+    ("c.y[0]", "unknown run 'c'"),
+    ("a.hight", "unknown measure"),
+    ("a.y", "is a list"),
+    ("a.max_depth[0]", "is a number"),
+    ("a.y[3]", "out of range"),
+    ("a.y[0.5]", "whole number"),
+    ("__import__('os').system('true')", "not allowed"),
+    ("a.y[0] ** 2", "not allowed"),
+    ("a.y[", "not an expression"),
+])
+def test_refused(text: str, words: str) -> None:
+    with pytest.raises(ExprError, match=words.replace("(", r"\(").replace("[", r"\[")):
+        evaluate(text, RUNS)
