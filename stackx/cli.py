@@ -7,6 +7,7 @@ fast. Every expected failure is a ``StackxError``: one or two lines on stderr an
 
 from __future__ import annotations
 
+import os
 import sys
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Optional
@@ -53,7 +54,7 @@ def _guard(debug: bool):  # type: ignore[no-untyped-def]
         except StackxError as exc:
             if debug:
                 raise
-            typer.echo(f"error: {exc}", err=True)
+            typer.echo(f"error: {' '.join(str(exc).split())}", err=True)  # one line, whatever a plugin said
             raise typer.Exit(exc.exit_code) from None
 
     return guard()
@@ -65,6 +66,7 @@ def _load_all(paths: list[str], sets: list[str] | None, plugins: Path | None) ->
     from stackx.errors import ConfigError
 
     specs = [load(f, sets, plugins) for f in config_files(paths)]
+    _warn_failed_plugins()
     owner: dict[str, str] = {}
     for spec in specs:
         for output in spec.outputs:
@@ -73,6 +75,15 @@ def _load_all(paths: list[str], sets: list[str] | None, plugins: Path | None) ->
                     raise ConfigError(f"{name!r} is written by both {owner[name]} and {spec.file}", file=spec.file)
                 owner[name] = spec.file
     return specs
+
+
+def _warn_failed_plugins() -> None:
+    """One line per local plugin file that failed to import: configs not using it still run."""
+    from stackx.registry import local_failures
+
+    for failure in local_failures():
+        typer.echo(f"warning: {failure.file}: local plugin failed to import, its plugins are unavailable: "
+                   f"{failure.message}", err=True)
 
 
 @app.command()
@@ -84,6 +95,28 @@ def run(paths: Paths, out: Annotated[Path, typer.Option("--out", "-o", help="out
         from stackx.session import run_all
 
         run_all(_load_all(paths, sets, plugins), out, quiet=quiet)
+
+
+@app.command()
+def bench(paths: Paths,
+          solvers: Annotated[Optional[str], typer.Option(
+              "--solvers", help="comma-separated solver names (default: every built-in and installed solver; "
+                                "local plugins join when named)")] = None,
+          out: Annotated[Path, typer.Option("--out", "-o", help="output folder")] = Path("out/bench"),
+          sets: Sets = None, plugins: Plugins = None, debug: Debug = False,
+          quiet: Annotated[bool, typer.Option("--quiet", "-q", help="no progress bar or tables")] = False) -> None:
+    """Run every chosen solver over the configs and a range of its cost knob; write bench.json and report.html."""
+    os.environ.setdefault("STACKX_JIT", "1")  # a bench measures compiled solvers, small batches too
+    with _guard(debug):
+        from stackx.bench.command import bench as run_bench
+        from stackx.errors import ConfigError
+
+        names = None
+        if solvers is not None:
+            names = [n.strip() for n in solvers.split(",") if n.strip()]
+            if not names:
+                raise ConfigError("--solvers needs at least one solver name, e.g. --solvers pgs,warm-start")
+        run_bench(paths, names, out, plugins, quiet, command=" ".join(["stackx", *sys.argv[1:]]), sets=sets)
 
 
 @app.command()
@@ -107,6 +140,7 @@ def plugins(plugins: Plugins = None, debug: Debug = False) -> None:
             registry.load_local_plugins(plugins)
         elif Path("plugins").is_dir():
             registry.load_local_plugins(Path("plugins"))
+        _warn_failed_plugins()
         table = Table(title="stackx plugins")
         for col in ("kind", "name", "source", "about"):
             table.add_column(col)
@@ -136,6 +170,17 @@ def schema(plugins: Plugins = None, debug: Debug = False,
             sys.stdout.write(text)
         else:
             out.write_text(text)
+
+
+@app.command()
+def verify(folder: Annotated[Path, typer.Argument(help="output folder holding a manifest.json")] = Path("out"),
+           debug: Debug = False) -> None:
+    """Run the configs of a folder's manifest again and report every artifact whose bytes differ."""
+    with _guard(debug):
+        from stackx.verify import verify as verify_folder
+
+        if verify_folder(folder, typer.echo):
+            raise typer.Exit(1)
 
 
 @app.command()

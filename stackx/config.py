@@ -11,6 +11,7 @@ from __future__ import annotations
 import copy
 import itertools
 import re
+import reprlib
 from dataclasses import dataclass, field
 from fractions import Fraction
 from pathlib import Path as FsPath
@@ -19,8 +20,12 @@ from typing import Annotated, Any
 from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, ValidationError, field_validator
 
 from stackx import registry
+from stackx.bench.case import BenchSection
 from stackx.errors import ConfigError
-from stackx.outputs import Output
+from stackx.limits import Limits
+from stackx.limits import check as check_limits
+from stackx.outdir import confine
+from stackx.outputs import Output, Renderer
 from stackx.scenes import Scene
 from stackx.yamlsrc import Mark, Path, Source, dotted, load_file, load_text
 
@@ -61,8 +66,12 @@ class ExperimentModel(BaseModel):
     runs: dict[str, dict[str, Any]] | None = Field(
         None, description="named runs, each a mapping of dotted keys to override (e.g. solver.iterations: 4)")
     sweep: Sweep | None = Field(None, description="a grid of overrides; one run per grid point")
+    limits: Limits = Field(default_factory=Limits, description="when a run counts as blown up (max_speed) and "
+                                                               "how big it may be (max_memory_mb, max_work)")
     outputs: list[dict[str, Any]] = Field(
         default_factory=list, description="sinks ({sink: NAME, ...}) and renderers ({render: NAME, ...})")
+    bench: BenchSection | None = Field(None, description="settings of 'stackx bench' (criteria, knob values, "
+                                                         "a lab claim); 'stackx run' ignores them")
 
     @field_validator("runs")
     @classmethod
@@ -98,6 +107,9 @@ class ExperimentSpec:
     outputs: list[Output]
     source: Source
     resolved: dict[str, Any]
+    limits: Limits = field(default_factory=Limits)
+    sets: list[str] = field(default_factory=list)  # the --set overrides it was loaded with
+    plugins: str | None = None  # the local plugin folder it was loaded with, if any
 
     def run(self, name: str) -> RunSpec:
         return next(r for r in self.runs if r.name == name)
@@ -231,6 +243,8 @@ def validate_model(model: type[BaseModel], data: Any, src: Source, prefix: Path)
 def _plugin(reg: registry.Registry[Any], section: dict[str, Any], key: str, src: Source, prefix: Path) -> Any:
     """Look up ``section[key]`` in ``reg`` and validate the rest of the section with its params model."""
     name = section.get(key)
+    if key in section and not isinstance(name, str):
+        raise src.error(prefix + (key,), f"a {reg.kind} plugin's name is text, not {reprlib.repr(name)}")
     if not isinstance(name, str):
         raise src.error(prefix, f"missing {key!r}: the {reg.kind} plugin's name")
     try:
@@ -306,7 +320,7 @@ def _resolve_run(name: str, src: Source, overrides: dict[str, Any]) -> RunSpec:
     base = validate_model(ExperimentModel, data, src, ())
     if base.scene is None or base.solver is None:
         missing = "scene" if base.scene is None else "solver"
-        raise src.error((), f"a run needs a {missing!r} section")
+        raise src.error((missing,), f"a run needs a {missing!r} section")
     scene_cls, scene_params = _plugin(registry.scenes, base.scene, "name", src, ("scene",))
     solver_cls, solver_params = _plugin(registry.solvers, base.solver, "name", src, ("solver",))
     scene = scene_cls(scene_params)
@@ -315,6 +329,13 @@ def _resolve_run(name: str, src: Source, overrides: dict[str, Any]) -> RunSpec:
                                             f" scenes, not {scene.model!r}")
     if base.steps == 0:
         raise src.error(("steps",), "a run needs 'steps' > 0")
+    from stackx.metrics import MOTION_WINDOW
+
+    for event in scene.events():
+        if event.step > base.steps - MOTION_WINDOW:
+            raise src.error(("scene", *event.origin, "step"), f"step {event.step} is too late: events happen "
+                            f"before the last {MOTION_WINDOW} of the {base.steps} steps, which measure the "
+                            "final motion of one set of boxes")
     return RunSpec(name, scene, solver_cls, solver_params, base.gravity, base.dt, base.steps, overrides)
 
 
@@ -335,28 +356,38 @@ def build(src: Source) -> ExperimentSpec:
         cls, params = _plugin(reg, section, kinds[0], src, ("outputs", i))
         outputs.append(cls(params))
     spec = ExperimentSpec(src.file, FsPath(src.file).stem, exp.description, runs, outputs, src,
-                          resolved=_resolved(exp, runs))
+                          resolved=_resolved(exp, runs, outputs), limits=exp.limits)
     written: dict[str, int] = {}
     for i, output in enumerate(outputs):
         prefix: Path = ("outputs", i)
         if output.needs_runs and not runs:
             raise src.error(prefix, f"{output.plugin_name!r} needs a simulation: add scene, solver and steps")
         output.check(spec, lambda path, msg, prefix=prefix: src.error(prefix + path, msg))
+        confine(output, lambda path, msg, prefix=prefix: src.error(prefix + path, msg))
         for name in output.files():
             if name in written:
                 raise src.error(prefix, f"{name!r} is also written by outputs[{written[name]}]")
             written[name] = i
+    check_limits(spec, exp.limits)
     return spec
 
 
-def _resolved(exp: ExperimentModel, runs: list[RunSpec]) -> dict[str, Any]:
-    """The config with every default filled in, per run: what was actually simulated."""
+def _dump(params: BaseModel) -> dict[str, Any]:
+    """Params as the config would spell them (aliases such as ``from``), defaults included."""
+    return params.model_dump(mode="json", by_alias=True)
+
+
+def _resolved(exp: ExperimentModel, runs: list[RunSpec], outputs: list[Output]) -> dict[str, Any]:
+    """The config as it was run: ``--set`` applied, ``runs``/``sweep`` expanded into one entry per run, and
+    every default filled in by the plugins' params models (what was simulated and what was written)."""
     return {
         "description": exp.description,
-        "runs": [{"name": r.name, "scene": {"name": r.scene.plugin_name, **r.scene.params.model_dump(mode="json")},
-                  "solver": {"name": r.solver_cls.plugin_name, **r.solver_params.model_dump(mode="json")},
+        "runs": [{"name": r.name, "scene": {"name": r.scene.plugin_name, **_dump(r.scene.params)},
+                  "solver": {"name": r.solver_cls.plugin_name, **_dump(r.solver_params)},
                   "gravity": r.gravity, "dt": r.dt, "steps": r.steps} for r in runs],
-        "outputs": exp.outputs,
+        "outputs": [{("render" if isinstance(o, Renderer) else "sink"): o.plugin_name,
+                     **_dump(o.params)} for o in outputs],
+        "limits": _dump(exp.limits),
     }
 
 
@@ -370,13 +401,18 @@ def nearest_plugins(config: str) -> FsPath | None:
 
 def load(path: str, sets: list[str] | None = None, plugins: FsPath | None = None) -> ExperimentSpec:
     """Load, override and validate one config file; local plugins (``--plugins`` or nearest) come first."""
+    if plugins is not None and not plugins.is_dir():
+        raise ConfigError("--plugins: no such folder", file=str(plugins))
     folder = plugins if plugins is not None else nearest_plugins(path)
     if folder is not None:
         registry.load_local_plugins(folder)
     src = load_file(path)
     if sets:
         src = apply_sets(src, sets)
-    return build(src)
+    spec = build(src)
+    spec.sets = list(sets or [])
+    spec.plugins = str(folder.resolve()) if folder is not None else None
+    return spec
 
 
 def config_files(paths: list[str]) -> list[str]:

@@ -35,3 +35,15 @@ class RunError(StackxError):
     """A run that failed while stepping or writing (blow-up, a plugin raising)."""
 
     exit_code = 1
+
+
+class BlowUp(RunError):
+    """A run whose state became NaN or infinite, or moved faster than ``limits.max_speed``.
+
+    ``report`` is what the failed-run file keeps: where it happened (step, run, box, solver) and the measures
+    of every run as far as it got, so the partial numbers are not lost with the run.
+    """
+
+    def __init__(self, message: str, report: dict[str, object]) -> None:
+        super().__init__(message)
+        self.report = report

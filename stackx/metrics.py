@@ -39,16 +39,20 @@ def rms_motion(frames: dict[int, ColumnState], steps: int, dt: float) -> float:
     return float(np.sqrt(np.mean((np.diff(ys, axis=0) / dt) ** 2)))
 
 
-def measure(final: ColumnState, frames: dict[int, ColumnState], steps: int, dt: float) -> dict[str, float | list[float]]:
-    """Every named measure of one run (a batch of one)."""
-    depth = final.penetration()[0]
+def state_measures(state: ColumnState) -> dict[str, float | list[float]]:
+    """The measures one state gives on its own (a batch of one): all but ``rms_motion``, which needs a window."""
+    depth = state.penetration()[0]
     return {
-        "y": final.y[0].tolist(),
-        "v": final.v[0].tolist(),
+        "y": state.y[0].tolist(),
+        "v": state.v[0].tolist(),
         "depth": depth.tolist(),
         "max_depth": float(depth.max()),
-        "peak_depth": float(max(final.peak_depth[0], 0.0)),
-        "reach": float(max(final.reach[0], 0.0)),
-        "launch": float(max(final.launch[0], 0.0)),
-        "rms_motion": rms_motion(frames, steps, dt),
+        "peak_depth": float(max(state.peak_depth[0], 0.0)),
+        "reach": float(max(state.reach[0], 0.0)),
+        "launch": float(max(state.launch[0], 0.0)),
     }
+
+
+def measure(final: ColumnState, frames: dict[int, ColumnState], steps: int, dt: float) -> dict[str, float | list[float]]:
+    """Every named measure of one run (a batch of one)."""
+    return {**state_measures(final), "rms_motion": rms_motion(frames, steps, dt)}

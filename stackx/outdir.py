@@ -1,8 +1,14 @@
 """The output folder: files are staged in memory and written only when a whole experiment succeeded.
 
 Each file is written to a temporary file in the same folder and renamed into place, so a reader (or a run
-killed halfway) sees either the old complete file or the new complete one. Paths are confined to the
-folder: absolute paths, ``..`` and links pointing out are refused.
+killed at any moment) sees either the old complete file or the new complete one. A run killed between the
+write and the rename can leave its temporary file behind: it is named ``.NAME.XXXXXXXX.tmp``, a hidden name
+that no artifact may have (``safe_relative`` refuses names starting with a dot), so it is never taken for an
+artifact, never listed in the manifest, and can be deleted at any time.
+
+Paths are confined to the folder: absolute paths, ``..``, hidden names and links on the way are refused.
+``confine`` checks an output's paths before anything runs (at config load, and against the real folder
+before stepping), so a bad path fails with the config's ``file:line:col``, not after a long run.
 """
 
 from __future__ import annotations
@@ -10,8 +16,22 @@ from __future__ import annotations
 import os
 import tempfile
 from pathlib import Path, PurePosixPath
+from typing import TYPE_CHECKING
 
-from stackx.errors import ConfigError
+from stackx.errors import ConfigError, RunError
+
+if TYPE_CHECKING:
+    from stackx.outputs import Fail, Output
+
+TEMP_SUFFIX = ".tmp"
+MANIFEST = "manifest.json"  # what the folder holds and how it was made (see stackx.manifest)
+TIMING = "timing.json"  # wall-clock times, the one file that differs between two runs
+FAILED_SUFFIX = ".failed.json"  # NAME.failed.json: the partial measures of experiment NAME that blew up
+
+
+def failed_file(experiment: str) -> str:
+    """The name of the failed-run file of an experiment."""
+    return experiment + FAILED_SUFFIX
 
 
 def safe_relative(name: str) -> str:
@@ -19,7 +39,43 @@ def safe_relative(name: str) -> str:
     p = PurePosixPath(name.replace("\\", "/"))
     if not name or p.is_absolute() or ".." in p.parts or any(":" in part for part in p.parts):
         raise ValueError(f"{name!r} must be a relative path inside the output folder (no '..', not absolute)")
+    if any(ch < " " for ch in name):
+        raise ValueError(f"{name!r} holds a control character")
+    if any(part.startswith(".") for part in p.parts):
+        raise ValueError(f"{name!r}: names starting with '.' are kept for temporary files; drop the dot")
+    if str(p) in (MANIFEST, TIMING) or (len(p.parts) == 1 and p.name.endswith(FAILED_SUFFIX)):
+        raise ValueError(f"{name!r} is kept for the folder's own records ({MANIFEST}, {TIMING}, "
+                         f"NAME{FAILED_SUFFIX}); choose another name")
     return str(p)
+
+
+def check_place(root: Path, name: str) -> None:
+    """Refuse, with ``ValueError``, a path under ``root`` that passes through a link or a file in the way."""
+    here = root
+    parts = PurePosixPath(safe_relative(name)).parts
+    for i, part in enumerate(parts):
+        here = here / part
+        if here.is_symlink():
+            raise ValueError(f"{name!r}: {here} is a link; outputs are not written through links")
+        last = i == len(parts) - 1
+        if here.exists() and (here.is_dir() if last else not here.is_dir()):
+            raise ValueError(f"{name!r}: {here} is {'a folder' if last else 'a file, not a folder'}")
+
+
+def _key(output: Output, name: str) -> str:
+    """The params key that names file ``name`` (e.g. ``player``), for the error position; else ``path``."""
+    return next((key for key, value in output.params if value == name), "path")
+
+
+def confine(output: Output, fail: Fail, root: Path | None = None) -> None:
+    """Refuse every path of ``output`` that leaves the folder (and, given ``root``, that meets a link there)."""
+    for name in output.files():
+        try:
+            safe_relative(name)
+            if root is not None:
+                check_place(root, name)
+        except ValueError as exc:
+            raise fail((_key(output, name),), str(exc)) from None
 
 
 class OutputDir:
@@ -30,31 +86,44 @@ class OutputDir:
         self.staged: dict[str, bytes] = {}
 
     def write_bytes(self, name: str, data: bytes) -> None:
+        if not isinstance(data, bytes):
+            raise TypeError(f"{name!r}: an output writes bytes, not {type(data).__name__}")
         self.staged[safe_relative(name)] = data
 
     def write_text(self, name: str, text: str) -> None:
+        if not isinstance(text, str):
+            raise TypeError(f"{name!r}: write_text takes a str, not {type(text).__name__}")
         self.write_bytes(name, text.encode("utf-8"))
 
     def commit(self) -> list[Path]:
-        """Write every staged file atomically; return their paths."""
+        """Write every staged file atomically, in name order; return their paths."""
         written = []
-        root = self.root.resolve()
-        for name, data in self.staged.items():
+        if self.root.exists() and not self.root.is_dir():
+            raise ConfigError("the output folder is a file", file=str(self.root))
+        for name, data in sorted(self.staged.items()):
             target = self.root / name
-            target.parent.mkdir(parents=True, exist_ok=True)
-            real = target.parent.resolve()
-            if real != root and root not in real.parents:
-                raise ConfigError(f"{name!r} leads out of the output folder {self.root} through a link")
-            if target.is_symlink():
-                raise ConfigError(f"{name!r} is a link in the output folder; refusing to write through it")
-            atomic_write(target, data)
+            try:
+                check_place(self.root, name)
+                target.parent.mkdir(parents=True, exist_ok=True)
+                check_place(self.root, name)  # again: a link could have appeared while making folders
+                atomic_write(target, data)
+            except ValueError as exc:
+                raise ConfigError(str(exc), file=str(self.root)) from None
+            except OSError as exc:
+                raise RunError(f"cannot write {target}: {exc.strerror or exc}") from None
             written.append(target)
         return written
 
 
 def atomic_write(target: Path, data: bytes) -> None:
-    """Write ``data`` to ``target`` through a temporary file in the same folder and a rename."""
-    fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
+    """Write ``data`` to ``target`` through a temporary file in the same folder and a rename.
+
+    A failure of the file system (full disk, no permission) is a ``RunError`` naming the file.
+    """
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=TEMP_SUFFIX, dir=target.parent)
+    except OSError as exc:
+        raise RunError(f"cannot write {target}: {exc.strerror or exc}") from None
     try:
         with os.fdopen(fd, "wb") as fh:
             fh.write(data)
@@ -62,7 +131,35 @@ def atomic_write(target: Path, data: bytes) -> None:
             os.fsync(fh.fileno())
         os.chmod(tmp, 0o644)
         os.replace(tmp, target)
-    except BaseException:
+    except BaseException as exc:
         if os.path.exists(tmp):
             os.unlink(tmp)
+        if isinstance(exc, OSError):
+            raise RunError(f"cannot write {target}: {exc.strerror or exc}") from None
         raise
+    _sync_folder(target.parent)
+
+
+def _sync_folder(folder: Path) -> None:
+    """Make the rename itself durable (a crash of the machine, not only of the process); best effort."""
+    try:
+        fd = os.open(folder, os.O_RDONLY)
+    except OSError:
+        return
+    try:
+        os.fsync(fd)
+    except OSError:
+        pass
+    finally:
+        os.close(fd)
+
+
+def write_json(target: Path, doc: object) -> None:
+    """``doc`` as sorted, indented JSON (the same bytes for the same content), written atomically."""
+    import json
+
+    try:
+        target.parent.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise RunError(f"cannot make the folder {target.parent}: {exc.strerror or exc}") from None
+    atomic_write(target, (json.dumps(doc, indent=2, sort_keys=True) + "\n").encode())

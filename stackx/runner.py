@@ -11,14 +11,17 @@ from __future__ import annotations
 import time
 from collections.abc import Callable
 from itertools import groupby
+from typing import Any
 
 import numpy as np
 
+from stackx import kernel
 from stackx.config import ExperimentSpec, RunSpec
-from stackx.errors import RunError
+from stackx.errors import BlowUp, RunError
 from stackx.metrics import measure, motion_steps
 from stackx.results import ExperimentResult, RunResult
 from stackx.state import ColumnState
+from stackx.watch import Watch, add_finished, first_line
 
 CHUNK = 500  # most steps per solver call: bounds how often progress is reported and blow-ups are caught
 
@@ -26,15 +29,20 @@ Progress = Callable[[int], None]
 
 
 def record_steps(spec: ExperimentSpec, run: RunSpec) -> list[int]:
-    """Steps before which the state is kept: what outputs need, the motion window, and the end."""
-    wanted = set(motion_steps(run.steps))
+    """Steps before which the state is kept: what outputs need, the scene's events, the motion window, the end."""
+    wanted = set(motion_steps(run.steps)) | {e.step for e in run.scene.events()}
     for output in spec.outputs:
         wanted |= output.frame_steps(spec)
     return sorted(k for k in wanted if 0 <= k <= run.steps)
 
 
 def _batch_key(run: RunSpec) -> tuple[object, ...]:
-    return (run.solver_cls.plugin_name, run.scene.size(), run.steps)
+    return (run.solver_cls.plugin_name, run.scene.size(), run.steps, tuple(map(repr, run.scene.events())))
+
+
+def _work(runs: list[RunSpec]) -> int:
+    """Box-steps of a batch: what decides whether compiling it pays (``stackx.kernel.worth_compiling``)."""
+    return len(runs) * runs[0].scene.size() * runs[0].steps
 
 
 def run_experiment(spec: ExperimentSpec, progress: Progress | None = None) -> ExperimentResult:
@@ -42,48 +50,61 @@ def run_experiment(spec: ExperimentSpec, progress: Progress | None = None) -> Ex
     result = ExperimentResult(spec)
     by_name: dict[str, RunResult] = {}
     ordered = sorted(spec.runs, key=_batch_key)
-    for _, group in groupby(ordered, key=_batch_key):
-        for r in _run_batch(spec, list(group), progress):
-            by_name[r.name] = r
+    try:
+        for _, group in groupby(ordered, key=_batch_key):
+            batch = list(group)
+            with kernel.compiled(kernel.worth_compiling(_work(batch))):
+                for r in _run_batch(spec, batch, progress):
+                    by_name[r.name] = r
+    except BlowUp as exc:
+        add_finished(exc.report, by_name, [r.name for r in spec.runs])
+        raise
     result.runs = [by_name[r.name] for r in spec.runs]
     return result
 
 
 def _run_batch(spec: ExperimentSpec, runs: list[RunSpec], progress: Progress | None) -> list[RunResult]:
-    state = ColumnState.concat([r.scene.build() for r in runs])
-    solver = runs[0].solver_cls([r.solver_params for r in runs], np.array([r.gravity for r in runs]),
-                                np.array([r.dt for r in runs]))
+    state, solver = _setup(spec, runs)
+    watch = Watch(spec.file, [r.name for r in runs], solver, runs[0].steps, spec.limits.max_speed)
+    watch.start(state)
     steps = runs[0].steps
+    events = {e.step: e for e in runs[0].scene.events()}  # same for the whole batch (see _batch_key)
     frames: dict[int, ColumnState] = {}
     wall = 0.0
     done = 0
     for stop in record_steps(spec, runs[0]):
         while done < stop:
             n = min(CHUNK, stop - done)
+            watch.save(state)
             t0 = time.perf_counter()
-            try:
-                solver.advance(state, n)
-            except Exception as exc:
-                raise RunError(f"{spec.file}: solver {solver.plugin_name!r} failed between steps {done} and "
-                               f"{done + n}: {type(exc).__name__}: {exc}") from exc
+            watch.advance(state, done, n)
             wall += time.perf_counter() - t0
-            _check_finite(spec, runs, state, done, n, solver.plugin_name)
+            watch.check(state, done, n)
             done += n
             if progress:
                 progress(n * len(runs))
+        if stop in events:
+            events[stop].apply(state, solver)
         frames[stop] = state.copy()
     out = []
+    rows = {k: s.rows() for k, s in frames.items()}  # each run's view of each recorded state, in one pass
     for b, run in enumerate(runs):
-        row = {k: s.row(b) for k, s in frames.items()}
+        row = {k: r[b] for k, r in rows.items()}
         final = row[steps]
         out.append(RunResult(run, final, row, measure(final, row, steps, run.dt), wall / len(runs)))
     return out
 
 
-def _check_finite(spec: ExperimentSpec, runs: list[RunSpec], state: ColumnState, done: int, n: int,
-                  solver: str) -> None:
-    bad = ~(np.isfinite(state.y) & np.isfinite(state.v))
-    if bad.any():
-        b, box = map(int, np.argwhere(bad)[0])
-        raise RunError(f"{spec.file}: run {runs[b].name!r} blew up (NaN or infinity) in box {box} between "
-                       f"steps {done} and {done + n}, solver {solver!r}")
+def _setup(spec: ExperimentSpec, runs: list[RunSpec]) -> tuple[ColumnState, Any]:
+    """The batch's initial state and its solver; a scene or solver plugin failing here is named with its file."""
+    plugin = runs[0].scene
+    try:
+        state = ColumnState.concat([r.scene.build() for r in runs])
+        plugin = runs[0].solver_cls
+        solver = runs[0].solver_cls([r.solver_params for r in runs], np.array([r.gravity for r in runs]),
+                                    np.array([r.dt for r in runs]))
+    except Exception as exc:
+        kind = "scene" if plugin is runs[0].scene else "solver"
+        raise RunError(f"{spec.file}: {kind} {plugin.plugin_name!r} ({getattr(plugin, 'plugin_origin', '?')}) "
+                       f"failed to set up run(s) {', '.join(repr(r.name) for r in runs)}: {first_line(exc)}") from exc
+    return state, solver

@@ -1,8 +1,10 @@
 """One ``stackx run``: step every experiment with a progress bar, write its artifacts, summarise.
 
 An experiment's files are staged and written only after all its runs and outputs succeeded, so a failure
-leaves the output folder as it was for that experiment. Wall-clock times, the one thing that differs from
-run to run, go to ``timing.json`` and nowhere else.
+leaves the output folder as it was for that experiment; each file is replaced atomically, and the folder's
+``manifest.json`` is updated right after (see ``stackx.manifest``). A run that blows up leaves its partial
+measures in ``NAME.failed.json`` instead, a file that a later successful run of the experiment removes.
+Wall-clock times, the one thing that differs from run to run, go to ``timing.json`` and nowhere else.
 """
 
 from __future__ import annotations
@@ -14,49 +16,80 @@ from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
+from stackx import manifest
 from stackx.config import ExperimentSpec
-from stackx.errors import RunError
-from stackx.outdir import OutputDir, atomic_write
+from stackx.errors import BlowUp, ConfigError, RunError
+from stackx.outdir import TIMING, OutputDir, atomic_write, confine, failed_file, write_json
 from stackx.results import ExperimentResult
 from stackx.runner import run_experiment
+from stackx.watch import first_line
 
-TIMING_FILE = "timing.json"
+TIMING_FILE = TIMING
 
 
 def run_all(specs: list[ExperimentSpec], out: Path, quiet: bool = False) -> list[ExperimentResult]:
+    preflight(specs, out)
     console = Console(stderr=True)
-    results = []
+    results: list[ExperimentResult] = []
     columns = (TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn())
-    with Progress(*columns, console=console, transient=True, disable=quiet) as bar:
-        for spec in specs:
-            total = sum(r.steps for r in spec.runs)
-            task = bar.add_task(spec.name, total=total or 1)
-            result = run_experiment(spec, lambda n, task=task: bar.advance(task, n))
-            _write(result, out)
-            bar.update(task, completed=total or 1)
-            results.append(result)
-    _write_timing(results, out)
+    try:
+        with Progress(*columns, console=console, transient=True, disable=quiet) as bar:
+            for spec in specs:
+                total = sum(r.steps for r in spec.runs)
+                task = bar.add_task(spec.name, total=total or 1)
+                try:
+                    result = run_experiment(spec, lambda n, task=task: bar.advance(task, n))
+                except BlowUp as exc:
+                    kept = out / failed_file(spec.name)
+                    write_json(kept, {**exc.report, "resolved": spec.resolved})
+                    raise BlowUp(f"{exc}; partial measures in {kept}", exc.report) from None
+                _write(result, out)
+                bar.update(task, completed=total or 1)
+                results.append(result)
+    finally:
+        if any(r.runs for r in results):
+            _write_timing(results, out)
     if not quiet:
         Console().print(summary(results, out))
     return results
 
 
-def _write(result: ExperimentResult, out: Path) -> None:
+def preflight(specs: list[ExperimentSpec], out: Path) -> None:
+    """Refuse, before anything steps, an output folder that cannot take the artifacts or has a bad manifest."""
+    if out.exists() and not out.is_dir():
+        raise ConfigError("the output folder is a file", file=str(out))
+    for spec in specs:
+        for i, output in enumerate(spec.outputs):
+            confine(output, lambda path, msg, i=i, spec=spec: spec.source.error(("outputs", i, *path), msg), out)
+    manifest.read(out)
+
+
+def stage(result: ExperimentResult, out: Path) -> OutputDir:
+    """Every output of a finished experiment, held in memory; a plugin failing is named with its file."""
     staged = OutputDir(out)
     for output in result.spec.outputs:
         try:
             output.write(result, staged)
-        except (RunError, OSError):
+        except RunError:
             raise
         except Exception as exc:
-            raise RunError(f"{result.spec.file}: output {output.plugin_name!r} failed: "
-                           f"{type(exc).__name__}: {exc}") from exc
+            raise RunError(f"{result.spec.file}: output {output.plugin_name!r} "
+                           f"({getattr(output, 'plugin_origin', '?')}) failed: {first_line(exc)}") from exc
+    return staged
+
+
+def _write(result: ExperimentResult, out: Path) -> None:
+    """Write an experiment's files, then its manifest entry; drop a failed-run file it leaves behind."""
+    staged = stage(result, out)
     staged.commit()
+    if staged.staged:
+        manifest.record(out, result.spec, staged.staged)
+    (out / failed_file(result.spec.name)).unlink(missing_ok=True)
 
 
 def _write_timing(results: list[ExperimentResult], out: Path) -> None:
     """Merge this invocation's wall times into ``timing.json`` (microseconds per step, per run)."""
-    path = out / TIMING_FILE
+    path = out / TIMING
     try:
         doc = json.loads(path.read_text())
         if not isinstance(doc, dict):

@@ -66,7 +66,10 @@ def load_text(text: str, file: str) -> Source:
     """Parse one YAML document; raise ``ConfigError`` with the position of any syntax error."""
     from stackx.errors import ConfigError
 
-    loader = yaml.SafeLoader(text)
+    try:
+        loader = yaml.SafeLoader(text)
+    except yaml.reader.ReaderError as exc:
+        raise ConfigError(f"YAML error: {exc.reason}", file=file, **_position(text, exc.position)) from None
     try:
         root = loader.get_single_node()
         src = Source(file, None)
@@ -75,12 +78,22 @@ def load_text(text: str, file: str) -> Source:
     except yaml.MarkedYAMLError as exc:
         mark = exc.problem_mark or exc.context_mark
         line, col = (mark.line + 1, mark.column + 1) if mark else (None, None)
-        problem = exc.problem or exc.context or "invalid YAML"
+        problem = "; ".join(p for p in (exc.context, exc.problem) if p) or "invalid YAML"
         raise ConfigError(f"YAML syntax error: {problem}", file=file, line=line, col=col) from None
+    except yaml.reader.ReaderError as exc:
+        raise ConfigError(f"YAML error: {exc.reason}", file=file, **_position(text, exc.position)) from None
     except yaml.YAMLError as exc:
-        raise ConfigError(f"YAML error: {exc}", file=file) from None
+        raise ConfigError(f"YAML error: {' '.join(str(exc).split())}", file=file, line=1, col=1) from None
+    except RecursionError:
+        raise ConfigError("YAML nested too deeply", file=file, line=1, col=1) from None
     finally:
         loader.dispose()
+
+
+def _position(text: str, offset: int) -> dict[str, int]:
+    """1-based line and column of a character offset in ``text``."""
+    before = text[:offset]
+    return {"line": before.count("\n") + 1, "col": offset - (before.rfind("\n") + 1) + 1}
 
 
 def load_file(path: str) -> Source:
@@ -88,10 +101,16 @@ def load_file(path: str) -> Source:
     from stackx.errors import ConfigError
 
     try:
-        with open(path, encoding="utf-8") as fh:
-            text = fh.read()
-    except (OSError, UnicodeDecodeError) as exc:
-        raise ConfigError(f"cannot read: {exc}", file=path) from None
+        with open(path, "rb") as fh:
+            raw = fh.read()
+    except OSError as exc:
+        raise ConfigError(f"cannot read: {exc.strerror or exc}", file=path) from None
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        good = raw[: exc.start].decode("utf-8")
+        raise ConfigError(f"not UTF-8 text: byte {raw[exc.start]:#04x} cannot start a character", file=path,
+                          **_position(good, len(good))) from None
     return load_text(text, path)
 
 
@@ -99,6 +118,11 @@ def _build(loader: yaml.SafeLoader, node: yaml.Node, path: Path, src: Source) ->
     from stackx.errors import ConfigError
 
     src.values[path] = _mark(src.file, node)
+    plain = {yaml.MappingNode: "tag:yaml.org,2002:map", yaml.SequenceNode: "tag:yaml.org,2002:seq"}
+    if type(node) in plain and node.tag != plain[type(node)]:  # scalars' tags are checked by the constructor
+        m = _mark(src.file, node)
+        raise ConfigError(f"YAML tag {node.tag!r} is not supported; write plain mappings and lists",
+                          file=src.file, line=m.line, col=m.col, key=dotted(path) or None)
     if isinstance(node, yaml.MappingNode):
         loader.flatten_mapping(node)
         out: dict[Any, Any] = {}

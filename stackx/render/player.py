@@ -13,6 +13,7 @@ def player_html(images: list[str], interval_ms: int, title: str) -> str:
 <html lang="en">
 <head>
 <meta charset="utf-8">
+<link rel="icon" href="data:,">
 <title>{html.escape(title)}</title>
 <style>body {{ background: #14141c; color: #ddd; font-family: sans-serif; text-align: center; }}
 img {{ image-rendering: pixelated; width: 512px; height: 512px; }}</style>

@@ -2,9 +2,27 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass, field
 from typing import Any, ClassVar
 
 from pydantic import BaseModel
+
+
+@dataclass(frozen=True)
+class Event:
+    """Something done to a run between two steps: ``apply`` runs before step ``step`` (after ``step`` steps).
+
+    The runner stops stepping at each event's step and calls ``apply(state, solver)``; the state recorded
+    before that step is the one after the event. An event changes the state in place and tells the solver,
+    whose per-box memory must follow. ``origin`` is where the event is written in the scene section, for
+    error messages.
+    """
+
+    step: int
+    origin: tuple[str | int, ...] = field(default=(), kw_only=True, repr=False, compare=False)
+
+    def apply(self, state: Any, solver: Any) -> None:
+        raise NotImplementedError
 
 
 class Scene:
@@ -23,3 +41,7 @@ class Scene:
 
     def build(self) -> Any:
         raise NotImplementedError
+
+    def events(self) -> tuple[Event, ...]:
+        """What happens to the state during a run, in step order (nothing, unless the scene says so)."""
+        return ()

@@ -49,3 +49,26 @@ class Solver:
 
     def advance(self, state: ColumnState, steps: int) -> None:
         raise NotImplementedError
+
+    @classmethod
+    def passes(cls, params: Any) -> int:
+        """Sweeps over the column per step, for the work estimate checked against ``limits.max_work``
+        before a run: ``iterations`` times ``substeps`` where the params have them; override when not."""
+        count = 1
+        for name in ("iterations", "substeps"):
+            value = getattr(params, name, None)
+            if isinstance(value, int) and value > 0:
+                count *= value
+        return count
+
+    def remove_box(self, state: ColumnState, box: int) -> None:
+        """Forget box ``box``, which a scene event is about to take out of ``state`` (still holding it).
+
+        Memory kept per box or per contact (contact k is the one under box k, as in ``state.depths()``) in
+        array attributes shaped ``(batch, boxes)`` loses column ``box``: the contact under the box goes, and
+        the one above it becomes the contact between the two neighbours, keeping its value (it carried the
+        same load). A solver keeping such memory in another shape overrides this.
+        """
+        for name, value in vars(self).items():
+            if isinstance(value, np.ndarray) and value.shape[:2] == (state.batch, state.boxes):
+                setattr(self, name, np.ascontiguousarray(np.delete(value, box, axis=1)))

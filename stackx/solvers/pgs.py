@@ -82,14 +82,15 @@ def pgs_advance(y: np.ndarray, v: np.ndarray, inv: np.ndarray, half: np.ndarray,
                 launch: np.ndarray, steps: int) -> None:
     """``steps`` lab steps of every batch row, in place."""
     for b in prange(y.shape[0]):
+        yb, vb, ib, hb = y[b], v[b], inv[b], half[b]  # the row's views, made once, not at every stage call
         for _ in range(steps):
-            gravity(v[b], g[b], dt[b])
+            gravity(vb, g[b], dt[b])
             for _ in range(iterations[b]):
-                velocity_pass(y[b], v[b], inv[b], half[b])
-            integrate_positions(y[b], v[b], dt[b])
+                velocity_pass(yb, vb, ib, hb)
+            integrate_positions(yb, vb, dt[b])
             if corrects[b]:
-                correct_positions(y[b], inv[b], half[b], slop[b], percent[b])
-            observe(y[b], v[b], half[b], peak, reach, touched, launch, b)
+                correct_positions(yb, ib, hb, slop[b], percent[b])
+            observe(yb, vb, hb, peak, reach, touched, launch, b)
 
 
 @solvers.register("pgs")

@@ -1,0 +1,27 @@
+"""``python -m benchmarks``: run the speed benchmark (see ``benchmarks/run.py``) and write its JSON."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+import yaml
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(prog="python -m benchmarks", description=__doc__)
+    parser.add_argument("--json", type=Path, default=Path("out/speed.json"), help="where the figures go")
+    parser.add_argument("--quick", action="store_true",
+                        help="fewer repeats, columns up to 1,000 boxes, a 1/27 sweep: a smoke test, not figures")
+    parser.add_argument("--tall-solver", type=yaml.safe_load, default=None, metavar="YAML",
+                        help="solver section for the tall columns, e.g. '{name: warm-start, iterations: 10}' "
+                             "(default: warm-start when registered, else pgs)")
+    args = parser.parse_args()
+    if args.tall_solver is not None and not (isinstance(args.tall_solver, dict) and "name" in args.tall_solver):
+        parser.error("--tall-solver must be a YAML mapping with a name, e.g. '{name: warm-start}'")
+    from benchmarks.run import run
+
+    run(args.json, args.quick, args.tall_solver)
+
+
+main()

@@ -1,0 +1,68 @@
+"""``stackx bench``: load every case first, run them with a progress bar, write the report, print tables.
+
+Every config and every solver's settings are validated before anything runs, so a bad file or an unknown
+solver stops the command with exit code 2 and nothing written; the output folder is written at the end,
+all files at once.
+"""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+from rich.console import Console
+from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+
+from stackx.bench.accuracy import find_reference
+from stackx.bench.plan import Case, load_case
+from stackx.bench.report import CaseResult, write
+from stackx.bench.sweep import run_case, work
+from stackx.bench.tables import print_all
+from stackx.config import config_files, load
+from stackx.errors import ConfigError
+from stackx.outdir import OutputDir
+
+WIDE = 160  # columns of the tables when the output is not a terminal
+
+
+def load_cases(paths: list[str], solvers: list[str] | None, plugins: Path | None,
+               sets: list[str] | None = None) -> list[tuple[Case, dict[str, str]]]:
+    """Every config made a bench case (validated, ``--set`` applied, solvers planned), in command-line order."""
+    cases = [load_case(load(f, sets, plugins), solvers) for f in config_files(paths)]
+    seen: dict[str, str] = {}
+    for case, _ in cases:
+        if case.name in seen:
+            raise ConfigError(f"two cases are named {case.name!r} ({seen[case.name]} and {case.spec.file}); "
+                              "rename one file", file=case.spec.file)
+        seen[case.name] = case.spec.file
+    return cases
+
+
+def bench(paths: list[str], solvers: list[str] | None, out: Path, plugins: Path | None = None,
+          quiet: bool = False, command: str = "stackx bench", sets: list[str] | None = None) -> list[CaseResult]:
+    """Bench ``paths`` with ``solvers`` (None: every built-in and installed one); write into ``out``."""
+    cases = load_cases(paths, solvers, plugins, sets)
+    reference = find_reference()
+    console = Console(stderr=True)
+    start = time.perf_counter()
+    results = []
+    columns = (TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn())
+    with Progress(*columns, console=console, transient=True, disable=quiet) as bar:
+        task = bar.add_task("bench", total=sum(work(c) for c, _ in cases) or 1)
+        for case, left_out in cases:
+            bar.update(task, description=case.name)
+            records = run_case(case, reference, lambda n: bar.advance(task, n))
+            results.append(CaseResult.build(case, records, left_out))
+    wall = time.perf_counter() - start
+    staged = OutputDir(out)
+    write(results, staged, command, wall)
+    staged.commit()
+    if not quiet:
+        screen = Console()
+        if not screen.is_terminal:
+            screen = Console(width=max(screen.width, WIDE))  # a log file gets the whole table, not a squeezed one
+        print_all(results, screen)
+        if reference is None:
+            screen.print("no 'exact' solver is registered: errors against it are not measured")
+        screen.print(f"wrote {out / 'bench.json'} and {out / 'report.html'} in {wall:.1f} s")
+    return results

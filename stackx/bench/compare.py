@@ -1,0 +1,124 @@
+"""Comparisons across solvers: the stability matrix, the speed-against-error front, equal-cost winners.
+
+Only the case's own settings count here (a claim's baseline runs are compared in ``claims``).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+from dataclasses import dataclass
+from typing import Any
+
+from stackx.bench.plan import CASE
+from stackx.bench.sweep import Record
+
+TARGETS = (1e-1, 1e-2, 1e-3, 1e-4, 1e-6)  # error levels (m/s) at which solvers are compared at equal cost
+
+
+def label(solver: str, knob: str | None, value: int | None) -> str:
+    """``warm-start (iterations 8)``, or the bare name of a solver without a knob."""
+    return f"{solver} ({knob} {value})" if knob else solver
+
+
+def case_records(records: Iterable[Record]) -> list[Record]:
+    return [r for r in records if r.variant == CASE]
+
+
+def failing(rec: Record) -> str:
+    """What broke a record's criteria, e.g. ``holds: max_depth 1.42 > 0.02; settled: rms_motion 1.02 >= 1e-04``;
+    for a run that blew up, where (the runner's message without the file and run it names)."""
+    if rec.blew_up:
+        return "blew up: " + rec.blew_up.split(" blew up ", 1)[-1]
+    return "; ".join(f"{name}: {v['failing']}" for name, v in rec.criteria.items() if not v["passed"])
+
+
+@dataclass
+class Cell:
+    """One solver on one case: passed at some knob value, or the failure at the most effort tried."""
+
+    passed: bool
+    knob: str | None
+    passing: list[int | None]
+    tried: list[int | None]
+    shown: int | None       # the knob value the failure is shown at (the largest tried)
+    failing: str
+
+    def text(self) -> str:
+        if self.passed:
+            if self.knob is None:
+                return "pass"
+            return f"pass at {self.knob} {_values(self.passing)} ({len(self.passing)}/{len(self.tried)})"
+        at = f" at {self.knob} {self.shown}" if self.knob is not None else ""
+        return f"FAIL{at}: {self.failing}"
+
+    def short(self) -> str:
+        """A terminal-width version: ``pass 8 (4/7)`` (the smallest passing knob value, passing/tried), or
+        ``FAIL`` and the measures that failed."""
+        if self.passed:
+            return "pass" if self.knob is None else f"pass {self.passing[0]} ({len(self.passing)}/{len(self.tried)})"
+        if self.failing.startswith("blew up"):
+            return "FAIL blew up"
+        return "FAIL " + " ".join(part.split(": ", 1)[1].split()[0] for part in self.failing.split("; ")
+                                  if ": " in part)
+
+    def as_dict(self) -> dict[str, Any]:
+        return {"passed": self.passed, "knob": self.knob, "passing": self.passing, "tried": self.tried,
+                "shown": self.shown, "failing": self.failing, "text": self.text()}
+
+
+def _values(values: list[int | None]) -> str:
+    return ", ".join(str(v) for v in values)
+
+
+def cell(records: list[Record]) -> Cell:
+    """The matrix cell of one solver's records on one case."""
+    recs = sorted(case_records(records), key=lambda r: r.value or 0)
+    passing = [r.value for r in recs if r.passed]
+    last = recs[-1]
+    return Cell(bool(passing), last.knob, passing, [r.value for r in recs], last.value,
+                "" if passing else failing(last))
+
+
+def matrix(records: Iterable[Record]) -> dict[str, dict[str, Cell]]:
+    """solver -> case -> cell, in the order the records come."""
+    grouped: dict[str, dict[str, list[Record]]] = {}
+    for r in case_records(records):
+        grouped.setdefault(r.solver, {}).setdefault(r.case, []).append(r)
+    return {solver: {case: cell(recs) for case, recs in by_case.items()} for solver, by_case in grouped.items()}
+
+
+def measured(records: Iterable[Record]) -> list[Record]:
+    """Records with both a time per step and an error against the exact solver."""
+    return [r for r in case_records(records) if r.us_per_step is not None and r.error.get("rms") is not None]
+
+
+def pareto(records: Iterable[Record]) -> list[Record]:
+    """The speed-against-error front: no other record is both faster and at least as accurate."""
+    front, best = [], float("inf")
+    for r in sorted(measured(records), key=lambda r: (r.us_per_step, r.error["rms"])):
+        if r.error["rms"] < best:  # type: ignore[operator]
+            front.append(r)
+            best = r.error["rms"]  # type: ignore[assignment]
+    return front
+
+
+def cheapest(records: Iterable[Record], target: float) -> dict[str, Record]:
+    """Per solver, the fastest record whose error is at most ``target``."""
+    out: dict[str, Record] = {}
+    for r in sorted(measured(records), key=lambda r: r.us_per_step):  # type: ignore[arg-type, return-value]
+        if r.error["rms"] <= target:
+            out.setdefault(r.solver, r)
+    return out
+
+
+def equal_cost(records: list[Record], targets: Iterable[float] = TARGETS) -> list[dict[str, Any]]:
+    """For each error level: which solver reaches it with the fewest microseconds per step, and the others'."""
+    rows = []
+    for target in targets:
+        by_solver = cheapest(records, target)
+        ranked = sorted(by_solver.values(), key=lambda r: r.us_per_step)  # type: ignore[arg-type, return-value]
+        rows.append({"target": target,
+                     "winner": ranked[0].solver if ranked else None,
+                     "solvers": [{"solver": r.solver, "knob": r.knob, "value": r.value, "us_per_step": r.us_per_step,
+                                  "error": r.error["rms"]} for r in ranked]})
+    return rows

@@ -1,0 +1,162 @@
+"""Run a bench case: every plan's knob values as one batched run per solver, then timings and errors.
+
+The measures come from the batched run (the runner puts the same solver and shape in one batch). Time per
+step cannot be split between the rows of a batch, so it is measured apart: short runs of one row from the
+scene's start, repeated, the median kept. A batch that blows up is run again row by row, so that one
+unstable knob value is a failing record and not a lost solver.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+from stackx.bench.accuracy import Reference, sample_steps, velocity_error
+from stackx.bench.measures import extra_measures, top_motion
+from stackx.bench.plan import CASE, Case, SolverPlan
+from stackx.bench.timing import one_thread, time_run
+from stackx.config import ExperimentSpec, RunSpec
+from stackx.criteria import NAMES, judge, passed
+from stackx.errors import RunError
+from stackx.outputs import Output
+from stackx.results import RunResult
+from stackx.runner import run_experiment
+
+RUN_MEASURES = ("max_depth", "peak_depth", "reach", "launch", "rms_motion")  # taken from the runner's measures
+
+Progress = Callable[[int], None]
+
+
+@dataclass
+class Record:
+    """One run of the bench: a solver at one knob value on one case, measured and judged."""
+
+    case: str
+    solver: str
+    knob: str | None
+    value: int | None
+    variant: str
+    params: dict[str, Any]
+    measures: dict[str, float] = field(default_factory=dict)
+    error: dict[str, Any] = field(default_factory=dict)
+    criteria: dict[str, Any] = field(default_factory=dict)
+    passed: bool = False
+    blew_up: str | None = None
+    us_per_step: float | None = None
+    timing: dict[str, Any] = field(default_factory=dict)
+
+    def as_dict(self) -> dict[str, Any]:
+        return dataclasses.asdict(self)
+
+
+class _Probe(Output):
+    """Asks the runner to keep the states the error against the exact solver is measured on."""
+
+    needs_runs = True
+
+    def __init__(self, steps: set[int]) -> None:
+        super().__init__(None)  # type: ignore[arg-type]
+        self.steps = steps
+
+    def files(self) -> list[str]:
+        return []
+
+    def frame_steps(self, spec: ExperimentSpec) -> set[int]:
+        return self.steps
+
+
+def _run_name(plan: SolverPlan, variant: str, value: int) -> str:
+    return f"{plan.solver}/{variant}/{value}"
+
+
+def _measure(case: Case, plan: SolverPlan, variant: str, value: int, result: RunResult,
+             reference: Reference | None, samples: list[int]) -> Record:
+    rec = _record(case, plan, variant, value)
+    m = result.measures
+    rec.measures = {k: float(m[k]) for k in RUN_MEASURES}  # type: ignore[arg-type]
+    rec.measures.update(extra_measures(result))
+    if case.section.claim is not None:
+        rec.measures.update(top_motion(result))
+    rec.error = velocity_error(result, samples, reference) if reference is not None else {}
+    verdicts = judge(rec.measures, case.section.criteria)
+    rec.criteria = {name: v.as_dict() for name, v in verdicts.items()}
+    rec.passed = passed(verdicts)
+    return rec
+
+
+def _record(case: Case, plan: SolverPlan, variant: str, value: int) -> Record:
+    params = plan.params[variant][value].model_dump(mode="json")
+    return Record(case.name, plan.solver, plan.knob, value if plan.knob else None, variant, params)
+
+
+def _blown(case: Case, plan: SolverPlan, variant: str, value: int, message: str) -> Record:
+    rec = _record(case, plan, variant, value)
+    rec.blew_up = message
+    rec.criteria = {name: {"passed": False, "failing": "blew up", "checks": []} for name in NAMES}
+    return rec
+
+
+def _runs(case: Case, plan: SolverPlan) -> list[tuple[str, int, RunSpec]]:
+    base = case.run
+    return [(variant, value, dataclasses.replace(base, name=_run_name(plan, variant, value),
+                                                 solver_cls=plan.solver_cls, solver_params=params, overrides={}))
+            for variant, by_value in plan.params.items() for value, params in by_value.items()]
+
+
+def run_plan(case: Case, plan: SolverPlan, reference: Reference | None,
+             progress: Progress | None = None) -> list[Record]:
+    """Every run of one solver on a case, measured; a blow-up is retried alone to find which rows blew up."""
+    samples = sample_steps(case.run, case.section.samples)
+    wanted = {s for k in samples for s in (k, k + 1)}
+    if case.section.claim is not None:  # a claim about bouncing is judged on every step (see top_motion)
+        wanted = set(range(case.run.steps + 1))
+    probe = _Probe(wanted)
+    runs = _runs(case, plan)
+
+    def experiment(specs: list[RunSpec]) -> ExperimentSpec:
+        return dataclasses.replace(case.spec, runs=specs, outputs=[probe])
+
+    try:
+        results = {r.name: r for r in run_experiment(experiment([r for _, _, r in runs]), progress).runs}
+    except RunError:
+        results = {}
+    out = []
+    for variant, value, run in runs:
+        result = results.get(run.name)
+        if result is None:
+            try:
+                result = run_experiment(experiment([run]), None).runs[0]
+            except RunError as exc:
+                out.append(_blown(case, plan, variant, value, str(exc)))
+                continue
+        out.append(_measure(case, plan, variant, value, result, reference, samples))
+    return out
+
+
+def time_plan(case: Case, plan: SolverPlan, records: list[Record]) -> None:
+    """Fill ``us_per_step`` of a plan's records (a baseline row costs what its case row costs)."""
+    by_value = {value: run for variant, value, run in _runs(case, plan) if variant == CASE}
+    for value, run in by_value.items():
+        timing = time_run(run, case.section.timing)
+        for rec in records:
+            if (rec.value if rec.knob else 0) == value:
+                rec.us_per_step = timing["us_per_step"]
+                rec.timing = timing
+
+
+def run_case(case: Case, reference: Reference | None, progress: Progress | None = None) -> list[Record]:
+    """Every plan of a case: measured, judged and timed, on one thread (see ``one_thread``)."""
+    records: list[Record] = []
+    with one_thread():
+        for plan in case.plans:
+            found = run_plan(case, plan, reference, progress)
+            time_plan(case, plan, found)
+            records.extend(found)
+    return records
+
+
+def work(case: Case) -> int:
+    """Steps the measured runs of a case take (box-steps are not counted: for a progress bar)."""
+    return sum(case.run.steps * len(by_value) for plan in case.plans for by_value in plan.params.values())

@@ -1,0 +1,64 @@
+"""Microseconds per step, measured apart from the batched runs that give the measures.
+
+The rows of a batch share one call, so a row's own time cannot be read from it; each knob value is timed
+in short runs of its own, from the scene's start, and the median of a few repeats is kept (a 2-core
+machine shared with other work is noisy). These are the only numbers of a bench that change from run to run.
+"""
+
+from __future__ import annotations
+
+import statistics
+import time
+from collections.abc import Iterator
+from contextlib import contextmanager
+from typing import Any
+
+import numpy as np
+
+from stackx import kernel
+from stackx.bench.case import Timing
+from stackx.config import RunSpec
+
+
+@contextmanager
+def one_thread() -> Iterator[None]:
+    """Run compiled kernels on one thread. A timed run is a single row and cannot use more; the batched runs
+    stop every few steps (final motion window, error samples), and on a busy 2-core machine waking the idle
+    pool thread at each such call costs about half a millisecond, more than the steps themselves."""
+    if not kernel.enabled():
+        yield
+        return
+    import numba
+
+    before = numba.get_num_threads()
+    numba.set_num_threads(1)
+    try:
+        yield
+    finally:
+        numba.set_num_threads(before)
+
+
+def time_run(run: RunSpec, timing: Timing) -> dict[str, Any]:
+    """Microseconds per step of ``run`` alone: the median of ``timing.repeats`` runs of up to ``timing.steps``
+    steps from the scene's start (stopping before the first scene event), after one untimed warm-up step,
+    compiled (unless ``STACKX_JIT=0``)."""
+    events = [e.step for e in run.scene.events()]
+    steps = min([timing.steps, run.steps, *events])
+
+    def fresh() -> tuple[Any, Any]:
+        solver = run.solver_cls([run.solver_params], np.array([run.gravity]), np.array([run.dt]))
+        return solver, run.scene.build()
+
+    try:
+        with kernel.compiled(kernel.enabled()):
+            solver, state = fresh()
+            solver.advance(state, 1)  # loads the compiled kernels; not timed
+            times = []
+            for _ in range(timing.repeats):
+                solver, state = fresh()
+                t0 = time.perf_counter()
+                solver.advance(state, steps)
+                times.append(1e6 * (time.perf_counter() - t0) / steps)
+    except Exception as exc:  # a solver that fails on its own is reported by the measured run, not here
+        return {"us_per_step": None, "steps": steps, "repeats": [], "failed": f"{type(exc).__name__}: {exc}"}
+    return {"us_per_step": statistics.median(times), "steps": steps, "repeats": times}

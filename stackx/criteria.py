@@ -1,0 +1,102 @@
+"""Pass criteria of the hard cases, judged from a finished run's measures.
+
+A solver passes a case when, at the case's end, it
+- **holds**: the largest contact depth in the final state is at most ``depth_factor`` x ``slop``, and no box
+  ever passed half-way into its neighbour or below the floor (the ``reach`` monitor stayed <= 1);
+- is **settled**: the RMS of the boxes' actual motion over the final window (``rms_motion``) is below
+  ``settle``;
+- **never launched**: no box that had touched something moved upward faster than ``launch`` (the ``launch``
+  monitor), the sign of a correction that became a force or of an over-eager solver.
+
+The limits are a config's ``bench.criteria`` section; the defaults are the hard cases' definitions.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any
+
+from pydantic import BaseModel, ConfigDict, Field
+
+NAMES = ("holds", "settled", "never_launched")
+
+
+class Criteria(BaseModel):
+    """Limits of the three criteria."""
+
+    model_config = ConfigDict(extra="forbid")
+    slop: float = Field(0.01, ge=0, allow_inf_nan=False,
+                        description="depth scale of 'holds' (m): the lab's slop, also where a solver runs with "
+                                    "another slop, so every solver is held to the same limit")
+    depth_factor: float = Field(2.0, gt=0, allow_inf_nan=False,
+                                description="'holds' allows a final depth of depth_factor x slop")
+    reach: float = Field(1.0, gt=0, allow_inf_nan=False,
+                         description="'holds' allows depths up to this share of the thinner box's half-height "
+                                     "at every step (1: half-way into the neighbour)")
+    settle: float = Field(1e-4, gt=0, allow_inf_nan=False,
+                          description="'settled' needs the final RMS motion below this (m/s)")
+    launch: float = Field(1.0, gt=0, allow_inf_nan=False,
+                          description="'never launched' allows upward velocities up to this after touching (m/s)")
+
+    @property
+    def depth_limit(self) -> float:
+        return self.depth_factor * self.slop
+
+
+@dataclass(frozen=True)
+class Check:
+    """One measure against its limit; ``passed`` says whether the measure stayed on the good side."""
+
+    measure: str
+    value: float
+    limit: float
+    passed: bool
+
+    def describe(self) -> str:
+        """``max_depth 0.53 > 0.02``: the measure, its value and how it stands to the limit."""
+        if self.passed:
+            rel = "<=" if self.measure != "rms_motion" else "<"
+        else:
+            rel = ">" if self.measure != "rms_motion" else ">="
+        return f"{self.measure} {self.value:.3g} {rel} {self.limit:.3g}"
+
+
+@dataclass(frozen=True)
+class Verdict:
+    """One criterion: passed when all its checks passed; ``failing`` names what broke it."""
+
+    name: str
+    checks: tuple[Check, ...]
+
+    @property
+    def passed(self) -> bool:
+        return all(c.passed for c in self.checks)
+
+    @property
+    def failing(self) -> str:
+        """The failed checks, described; empty when the criterion passed."""
+        return "; ".join(c.describe() for c in self.checks if not c.passed)
+
+    def as_dict(self) -> dict[str, Any]:
+        return {"passed": self.passed, "failing": self.failing,
+                "checks": [{"measure": c.measure, "value": c.value, "limit": c.limit, "passed": c.passed}
+                           for c in self.checks]}
+
+
+def judge(measures: Mapping[str, Any], criteria: Criteria) -> dict[str, Verdict]:
+    """The three verdicts of one run from its measures (``max_depth``, ``reach``, ``rms_motion``, ``launch``)."""
+    depth, reach = float(measures["max_depth"]), float(measures["reach"])
+    motion, launch = float(measures["rms_motion"]), float(measures["launch"])
+    return {
+        "holds": Verdict("holds", (Check("max_depth", depth, criteria.depth_limit, depth <= criteria.depth_limit),
+                                   Check("reach", reach, criteria.reach, reach <= criteria.reach))),
+        "settled": Verdict("settled", (Check("rms_motion", motion, criteria.settle, motion < criteria.settle),)),
+        "never_launched": Verdict("never_launched",
+                                  (Check("launch", launch, criteria.launch, launch <= criteria.launch),)),
+    }
+
+
+def passed(verdicts: Mapping[str, Verdict]) -> bool:
+    """A case is passed when every criterion is."""
+    return all(v.passed for v in verdicts.values())

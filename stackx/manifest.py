@@ -1,0 +1,122 @@
+"""``manifest.json``: every artifact of an output folder with its SHA-256, and how it was made.
+
+One manifest per output folder, ``DIR/manifest.json``. Each experiment that ``stackx run`` writes into the
+folder gets one entry, written right after its artifacts (so the manifest follows the folder experiment by
+experiment); a later run into the same folder merges: an experiment that runs again replaces its entry
+whole, a file now written by another experiment leaves the old one's list, and entries of experiments not
+run again stay, since their files are still there untouched.
+
+An entry holds what is needed to make the files again and to check them:
+- ``config``: the config file (absolute path) and ``config_sha256``, its bytes when it ran;
+- ``sets`` and ``plugins``: the ``--set`` overrides and the local plugin folder it was loaded with;
+- ``resolved``: the config as it was run: overrides applied, ``runs``/``sweep`` expanded to one entry per
+  run, every default filled in by the plugins' params models (see ``config._resolved``);
+- ``plugins_used``: each plugin the experiment used and where it came from, with the SHA-256 of a local file;
+- ``artifacts``: file name -> ``{sha256, bytes}``.
+At the top: the stackx, Python and dependency versions, and ``volatile``: files left out on purpose
+(``timing.json``, wall-clock times). There is no time stamp, so the same configs give the same manifest,
+byte for byte, and ``stackx verify`` compares with it.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import platform
+from importlib.metadata import PackageNotFoundError, version
+from pathlib import Path
+from typing import Any
+
+from stackx import __version__
+from stackx.errors import ConfigError
+from stackx.outdir import MANIFEST, TIMING, write_json
+
+FORMAT = 1
+DEPENDENCIES = ("numpy", "numba", "pydantic", "PyYAML", "typer", "rich")
+VOLATILE = {TIMING: "wall-clock time per step; differs from run to run, so it is neither hashed nor verified"}
+
+
+def sha256(data: bytes) -> str:
+    return hashlib.sha256(data).hexdigest()
+
+
+def versions() -> dict[str, str]:
+    """Python and every runtime dependency, as installed."""
+    out = {"python": platform.python_version()}
+    for name in DEPENDENCIES:
+        try:
+            out[name] = version(name)
+        except PackageNotFoundError:
+            out[name] = "not installed"
+    return out
+
+
+def _source(plugin: Any) -> dict[str, str]:
+    origin = str(getattr(plugin, "plugin_origin", "unknown"))
+    out = {"source": origin}
+    if origin.endswith(".py") and Path(origin).is_file():
+        out = {"source": str(Path(origin).resolve()), "sha256": sha256(Path(origin).read_bytes())}
+    return out
+
+
+def plugins_used(spec: Any) -> dict[str, dict[str, str]]:
+    """``kind:name`` -> where the plugin came from, for every plugin the experiment used."""
+    used: dict[str, Any] = {}
+    for run in spec.runs:
+        used[f"scene:{run.scene.plugin_name}"] = run.scene
+        used[f"solver:{run.solver_cls.plugin_name}"] = run.solver_cls
+    for output in spec.outputs:
+        from stackx.outputs import Renderer
+
+        used[f"{'renderer' if isinstance(output, Renderer) else 'sink'}:{output.plugin_name}"] = output
+    return {key: _source(plugin) for key, plugin in sorted(used.items())}
+
+
+def entry(spec: Any, files: dict[str, bytes]) -> dict[str, Any]:
+    """The manifest entry of one experiment that wrote ``files``."""
+    config = Path(spec.file)
+    return {
+        "config": str(config.resolve()),
+        "config_sha256": sha256(config.read_bytes()) if config.is_file() else None,
+        "sets": list(spec.sets),
+        "plugins": spec.plugins,
+        "resolved": spec.resolved,
+        "plugins_used": plugins_used(spec),
+        "artifacts": {name: {"sha256": sha256(data), "bytes": len(data)} for name, data in sorted(files.items())},
+    }
+
+
+def header() -> dict[str, Any]:
+    return {"format": FORMAT, "stackx": __version__, "versions": versions(), "volatile": VOLATILE}
+
+
+def read(folder: Path) -> dict[str, Any] | None:
+    """The folder's manifest, None when there is none; a file that is not one is refused, never overwritten."""
+    path = folder / MANIFEST
+    if not path.exists():
+        return None
+    try:
+        doc = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, ValueError) as exc:
+        raise ConfigError(f"not a readable stackx manifest ({exc}); move it away to start a new one",
+                          file=str(path)) from None
+    if not (isinstance(doc, dict) and doc.get("format") == FORMAT and isinstance(doc.get("experiments"), dict)):
+        raise ConfigError(f"not a stackx manifest of format {FORMAT}; move it away to start a new one",
+                          file=str(path))
+    return doc
+
+
+def merged(doc: dict[str, Any] | None, name: str, new: dict[str, Any]) -> dict[str, Any]:
+    """``doc`` with experiment ``name``'s entry replaced by ``new``, and its files taken off other entries."""
+    experiments = dict(doc["experiments"]) if doc else {}
+    for other, old in experiments.items():
+        if other != name:
+            kept = {f: h for f, h in old["artifacts"].items() if f not in new["artifacts"]}
+            experiments[other] = {**old, "artifacts": kept}
+    experiments[name] = new
+    return {**header(), "experiments": dict(sorted(experiments.items()))}
+
+
+def record(folder: Path, spec: Any, files: dict[str, bytes]) -> None:
+    """Merge the entry of ``spec``, which just wrote ``files``, into the folder's manifest (atomically)."""
+    write_json(folder / MANIFEST, merged(read(folder), spec.name, entry(spec, files)))

@@ -1,0 +1,107 @@
+"""Which solver passes which hard case, pinned: a change that breaks a passing case (or mends a failing one)
+fails here until the table below is updated on purpose.
+
+Small versions of the cases (configs/hard/*.yaml with fewer boxes or steps where a case is big) run through
+``stackx bench`` with every built-in solver at knob values 4, 16 and 64 (the lab solver also at its own 15);
+the table holds, per case and solver, the knob values at which all three criteria passed. The lab solver's
+failures are part of the table, as the report shows them.
+"""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+import yaml
+
+from stackx import registry
+from tests.conftest import CONFIGS, REPO
+
+SMALL = {  # what makes a big case small: dotted key -> value
+    "tall-1000": {"scene.stack.count": 200, "steps": 600},
+    "long-rest": {"steps": 5000},
+}
+KNOB = [4, 16, 64]
+
+PINNED: dict[str, dict[str, list[int | None]]] = {
+    "big-dt": {
+        "baumgarte": [], "exact": [None], "jacobi": [64], "ngs": [16, 64], "pgs": [64], "soft-step": [],
+        "split-impulse": [], "warm-start": [16, 64], "xpbd": [64]},
+    "drop-fast": {
+        "baumgarte": [], "exact": [None], "jacobi": [], "ngs": [64], "pgs": [64], "soft-step": [],
+        "split-impulse": [64], "warm-start": [64], "xpbd": [64]},
+    "light-on-heavy": {
+        "baumgarte": [4, 16, 64], "exact": [None], "jacobi": [4, 16, 64], "ngs": [4, 16, 64], "pgs": [15, 16, 64],
+        "soft-step": [4, 16, 64], "split-impulse": [4, 16, 64], "warm-start": [4, 16, 64], "xpbd": [4, 16, 64]},
+    "load-removal": {
+        "baumgarte": [64], "exact": [None], "jacobi": [64], "ngs": [16, 64], "pgs": [], "soft-step": [16, 64],
+        "split-impulse": [16, 64], "warm-start": [16, 64], "xpbd": [16, 64]},
+    "long-rest": {
+        "baumgarte": [4, 16, 64], "exact": [None], "jacobi": [4, 16, 64], "ngs": [4, 16, 64], "pgs": [],
+        "soft-step": [4, 16, 64], "split-impulse": [4, 16, 64], "warm-start": [4, 16, 64], "xpbd": [4, 16, 64]},
+    "overlap-25": {
+        "baumgarte": [], "exact": [], "jacobi": [], "ngs": [4, 16, 64], "pgs": [], "soft-step": [],
+        "split-impulse": [4, 16, 64], "warm-start": [], "xpbd": []},
+    "percent-1": {
+        "baumgarte": [], "exact": [None], "jacobi": [64], "ngs": [16, 64], "pgs": [15, 16, 64],
+        "soft-step": [16, 64], "split-impulse": [16, 64], "warm-start": [16, 64], "xpbd": [64]},
+    "ratio-100": {
+        "baumgarte": [64], "exact": [None], "jacobi": [], "ngs": [64], "pgs": [], "soft-step": [],
+        "split-impulse": [64], "warm-start": [64], "xpbd": [16, 64]},
+    "ratio-1000": {
+        "baumgarte": [], "exact": [None], "jacobi": [], "ngs": [], "pgs": [], "soft-step": [], "split-impulse": [],
+        "warm-start": [], "xpbd": []},
+    "slop-0": {
+        "baumgarte": [], "exact": [None], "jacobi": [64], "ngs": [16, 64], "pgs": [64], "soft-step": [16, 64],
+        "split-impulse": [16, 64], "warm-start": [16, 64], "xpbd": [64]},
+    "tall-100": {
+        "baumgarte": [], "exact": [], "jacobi": [], "ngs": [], "pgs": [], "soft-step": [], "split-impulse": [],
+        "warm-start": [], "xpbd": [64]},
+    "tall-1000": {
+        "baumgarte": [], "exact": [], "jacobi": [], "ngs": [], "pgs": [], "soft-step": [], "split-impulse": [],
+        "warm-start": [], "xpbd": []},
+    "tall-20": {
+        "baumgarte": [], "exact": [None], "jacobi": [64], "ngs": [], "pgs": [], "soft-step": [4, 16, 64],
+        "split-impulse": [16, 64], "warm-start": [16, 64], "xpbd": [16, 64]},
+}
+
+
+def _small_configs(folder: Path) -> None:
+    folder.mkdir()
+    for path in sorted((CONFIGS / "hard").glob("*.yaml")):
+        data = yaml.safe_load(path.read_text())
+        for key, value in SMALL.get(path.stem, {}).items():
+            node = data
+            *parents, last = key.split(".")
+            for part in parents:
+                node = node[part]
+            node[last] = value
+        data["bench"] = {**data.get("bench", {}), "knob": KNOB, "samples": 2, "timing": {"steps": 1, "repeats": 1}}
+        (folder / path.name).write_text(yaml.safe_dump(data, sort_keys=False))
+
+
+@pytest.fixture(scope="module")
+def matrix(tmp_path_factory: pytest.TempPathFactory) -> dict[str, dict[str, dict]]:
+    tmp = tmp_path_factory.mktemp("pins")
+    _small_configs(tmp / "hard")
+    done = subprocess.run([sys.executable, "-m", "stackx", "bench", str(tmp / "hard"), "--out", str(tmp / "out"), "-q"],
+                          cwd=REPO, capture_output=True, text=True, timeout=900)
+    assert done.returncode == 0, done.stderr
+    return json.loads((tmp / "out" / "bench.json").read_text())["matrix"]
+
+
+def test_every_case_and_builtin_solver_is_pinned(matrix: dict[str, dict[str, dict]]) -> None:
+    solvers = {e.name for e in registry.solvers.entries() if e.origin == "built-in"}
+    assert set(matrix) == solvers
+    assert {s for row in PINNED.values() for s in row} == solvers, "pin the new solver in PINNED"
+    assert set(PINNED) == {p.stem for p in (CONFIGS / "hard").glob("*.yaml")}
+
+
+@pytest.mark.parametrize("case", sorted(PINNED))
+def test_passing_knob_values_are_pinned(matrix: dict[str, dict[str, dict]], case: str) -> None:
+    got = {solver: row[case]["passing"] for solver, row in matrix.items()}
+    changed = {solver: row[case]["text"] for solver, row in matrix.items() if got[solver] != PINNED[case].get(solver)}
+    assert got == PINNED[case], f"{case}: {changed}; now {got}"

@@ -1,0 +1,102 @@
+"""How kernels are compiled, cached and chosen (``stackx.kernel``)."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import pytest
+
+from stackx import kernel
+from tests.conftest import CONFIGS, REPO
+
+CALLER = '''
+from stackx.kernel import kernel
+from shifts import shift
+
+@kernel
+def twice_shifted(x: float) -> float:
+    return 2.0 * shift(x)
+'''
+
+
+def _callee(amount: float) -> str:
+    return f"from stackx.kernel import kernel\n\n@kernel\ndef shift(x: float) -> float:\n    return x + {amount}\n"
+
+
+def _compiled_result(folder: Path, cache: Path) -> str:
+    code = "import sys; sys.path.insert(0, sys.argv[1]); from caller import twice_shifted; print(twice_shifted(1.0))"
+    done = subprocess.run([sys.executable, "-c", code, str(folder)], capture_output=True, text=True, check=True,
+                          env={**os.environ, "STACKX_JIT": "1", "STACKX_CACHE_DIR": str(cache)}, cwd=REPO)
+    return done.stdout.strip()
+
+
+def test_changing_a_called_kernel_does_not_load_stale_compiled_code(tmp_path: Path) -> None:
+    """numba checks only the caller's file; the cache folder is keyed by the callee's source as well."""
+    (tmp_path / "caller.py").write_text(CALLER)
+    (tmp_path / "shifts.py").write_text(_callee(1.5))
+    cache = tmp_path / "cache"
+    assert _compiled_result(tmp_path, cache) == "5.0"
+    assert any(cache.rglob("caller.twice_shifted-*.nbi"))  # it was cached
+    (tmp_path / "shifts.py").write_text(_callee(2.5))  # the caller's file is untouched
+    assert _compiled_result(tmp_path, cache) == "7.0"
+
+
+def _imports_numba(config: Path, jit: str | None) -> bool:
+    code = textwrap.dedent("""
+        import sys
+        from stackx.cli import app
+        try:
+            app(["run", sys.argv[1], "--out", sys.argv[2], "-q"])
+        except SystemExit:
+            pass
+        print("numba" in sys.modules)
+    """)
+    env = {k: v for k, v in os.environ.items() if k != "STACKX_JIT"}
+    if jit is not None:
+        env["STACKX_JIT"] = jit
+    out = Path(os.environ.get("TMPDIR", "/tmp"))
+    done = subprocess.run([sys.executable, "-c", code, str(config), str(out / "stackx-speed-test-out")],
+                          capture_output=True, text=True, check=True, env=env, cwd=REPO)
+    return done.stdout.strip().splitlines()[-1] == "True"
+
+
+def test_a_small_run_does_not_wait_for_numba_by_default() -> None:
+    assert not _imports_numba(CONFIGS / "06-stack.yaml", None)
+    assert _imports_numba(CONFIGS / "06-stack.yaml", "1")
+
+
+@pytest.mark.parametrize("env, work, want", [
+    ({}, kernel.DEFAULT_WORK - 1, False),
+    ({}, kernel.DEFAULT_WORK, True),
+    ({"STACKX_JIT": "auto"}, 10**9, True),
+    ({"STACKX_JIT": "0"}, 10**9, False),
+    ({"STACKX_JIT": "1"}, 1, True),
+    ({"STACKX_JIT_WORK": "10"}, 10, True),
+    ({"STACKX_JIT_WORK": "10"}, 9, False),
+])
+def test_which_batches_are_compiled(env: dict[str, str], work: int, want: bool,
+                                    monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.delenv("STACKX_JIT", raising=False)
+    monkeypatch.delenv("STACKX_JIT_WORK", raising=False)
+    for key, value in env.items():
+        monkeypatch.setenv(key, value)
+    assert kernel.worth_compiling(work) is (want and kernel.available())
+
+
+def _halve(x: float) -> float:
+    return 0.5 * x
+
+
+@pytest.mark.skipif(not kernel.available(), reason="numba is not installed")
+def test_a_block_picks_the_path_of_the_kernels_called_in_it() -> None:
+    halve = kernel.kernel(_halve)
+    with kernel.compiled(False):
+        assert halve(3.0) == 1.5
+    assert halve.build().signatures == []  # nothing was compiled for the plain call
+    with kernel.compiled(True):
+        assert halve(3.0) == 1.5
+    assert len(halve.build().signatures) == 1
