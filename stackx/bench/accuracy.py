@@ -10,7 +10,11 @@ Why along the solver's own path and not by running both side by side: two runs p
 steps on any stack that is not held, after which a per-step comparison measures the distance between two
 different piles, not how well each step was solved. From the same state, the difference is the error of
 this step's solve alone: iteration error for an iterative solver, plus whatever the solver does on purpose
-that a rigid contact does not (a bias that pushes apart, a soft contact, substeps, speculative contacts).
+that a rigid contact does not (a bias that pushes apart, a soft contact, substeps).
+
+Which contacts take part is part of the problem, not of its solution, so the exact step uses the solver's
+own ``speculative`` margin (0, the lab's rule, for a solver without one): a solver is compared with the
+exact solve of the problem it set itself.
 """
 
 from __future__ import annotations
@@ -26,15 +30,16 @@ from stackx.config import RunSpec
 from stackx.errors import ConfigError
 from stackx.results import RunResult
 
-Reference = Callable[[np.ndarray, np.ndarray, np.ndarray, np.ndarray, float, float], np.ndarray]
-"""``(y, v, inv_mass, half, g, dt) -> v_after`` for one column (1-D arrays): the exact step's velocities."""
+Reference = Callable[[np.ndarray, np.ndarray, np.ndarray, np.ndarray, float, float, float], np.ndarray]
+"""``(y, v, inv_mass, half, g, dt, speculative) -> v_after`` for one column (1-D arrays): the exact step's
+velocities."""
 
 REFERENCE_SOLVER = "exact"
 
 
 def find_reference() -> Reference | None:
-    """The exact step's velocities, from the ``exact`` solver's ``exact_velocities`` kernel at its default
-    contact rule; None when no such solver is registered."""
+    """The exact step's velocities, from the ``exact`` solver's ``exact_velocities`` kernel; None when no
+    such solver is registered."""
     try:
         cls = registry.solvers.get(REFERENCE_SOLVER)
     except ConfigError:
@@ -42,10 +47,8 @@ def find_reference() -> Reference | None:
     solve = getattr(importlib.import_module(cls.__module__), "exact_velocities", None)
     if solve is None:
         return None
-    speculative = float(getattr(cls.Params(), "speculative", 0.0))
-
     def reference(y: np.ndarray, v: np.ndarray, inv: np.ndarray, half: np.ndarray, g: float,
-                  dt: float) -> np.ndarray:
+                  dt: float, speculative: float) -> np.ndarray:
         after_gravity = v + g * dt  # the same rounding as every solver's gravity stage, v[i] += g*dt
         return np.asarray(solve(y, after_gravity, inv, half, dt, speculative)[0])
 
@@ -64,11 +67,12 @@ def velocity_error(result: RunResult, samples: list[int], reference: Reference) 
     """``rms`` and ``max`` velocity difference from the exact step over the sampled ``steps`` (see the module
     text)."""
     spec = result.spec
+    speculative = float(getattr(spec.solver_params, "speculative", 0.0))
     diffs = []
     for k in samples:
         before, after = result.frames[k], result.frames[k + 1]
         exact = reference(before.y[0].copy(), before.v[0].copy(), before.inv_mass[0].copy(), before.half[0].copy(),
-                          spec.gravity, spec.dt)
+                          spec.gravity, spec.dt, speculative)
         diffs.append(after.v[0] - np.asarray(exact))
     if not diffs:
         return {"rms": None, "max": None, "steps": []}

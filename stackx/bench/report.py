@@ -164,7 +164,7 @@ table { border-collapse: collapse; margin: .6em 0 1.2em; font-size: 12.5px; }
 th, td { border: 1px solid #ccc; padding: 3px 6px; text-align: right; vertical-align: top; }
 th { background: #f2f2f2; } td.l, th.l { text-align: left; }
 td.pass { background: #e3f4e3; } td.fail { background: #fbe3e0; }
-.matrix td { text-align: left; max-width: 170px; overflow-wrap: anywhere; }
+.matrix td, .matrix th { text-align: left; max-width: 170px; overflow-wrap: anywhere; }
 code { background: #f4f4f4; padding: 0 3px; } p.note { color: #555; } img { max-width: 100%; }
 """
 

@@ -42,7 +42,7 @@ class ExactParams(BaseModel):
         description="position correction after the exact velocity solve, the lab's (slop, percent), or 'off'; "
                     "the same as the lab solver's, so the two differ only in how well the velocities are solved")
     speculative: float = speculative_field(
-        0.0, "; at 0 the solve is the limit of the lab solver's iterations, the ground truth for the others")
+        0.02, "; at 0 the solve is exactly the limit of the lab solver's iterations")
 
 
 @kernel

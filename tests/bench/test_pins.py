@@ -58,10 +58,10 @@ PINNED: dict[str, dict[str, list[int | None]]] = {
         "baumgarte": [], "exact": [None], "jacobi": [64], "ngs": [16, 64], "pgs": [64], "soft-step": [16, 64],
         "split-impulse": [16, 64], "warm-start": [16, 64], "xpbd": [64]},
     "tall-100": {
-        "baumgarte": [], "exact": [], "jacobi": [], "ngs": [], "pgs": [], "soft-step": [], "split-impulse": [],
+        "baumgarte": [], "exact": [None], "jacobi": [], "ngs": [], "pgs": [], "soft-step": [], "split-impulse": [],
         "warm-start": [], "xpbd": [64]},
     "tall-1000": {
-        "baumgarte": [], "exact": [], "jacobi": [], "ngs": [], "pgs": [], "soft-step": [], "split-impulse": [],
+        "baumgarte": [], "exact": [None], "jacobi": [], "ngs": [], "pgs": [], "soft-step": [], "split-impulse": [],
         "warm-start": [], "xpbd": []},
     "tall-20": {
         "baumgarte": [], "exact": [None], "jacobi": [64], "ngs": [], "pgs": [], "soft-step": [4, 16, 64],
