@@ -37,7 +37,7 @@ def _ptr(a: np.ndarray, kind: type) -> object:
 
 
 class Native:
-    """Both C steppers; arrays are numpy, shaped like stackx's ``(rows, boxes)``, changed in place."""
+    """The C steppers; arrays are numpy, shaped like stackx's ``(rows, boxes)``, changed in place."""
 
     def __init__(self, path: Path, command: list[str]) -> None:
         self.lib = ctypes.CDLL(str(path))
@@ -45,8 +45,10 @@ class Native:
         self.lib.lab_advance.restype = None
         self.lib.lab_advance.argtypes = [_LONG, _LONG, _D, _D, _D, _D, _D, _D, _I64, _B, _D, _D, _LONG]
         self.lib.warm_start_advance.restype = None
-        self.lib.warm_start_advance.argtypes = [_LONG, _LONG, _D, _D, _D, _D, _D, _D, _I64, _B, _D, _D, _D, _D, _D,
-                                                _LONG]
+        self.lib.warm_start_advance.argtypes = [_LONG, _LONG, _D, _D, _D, _D, _D, _D, _I64, _B, _B, _D, _D, _D, _D,
+                                                _D, _LONG]
+        self.lib.exact_advance.restype = None
+        self.lib.exact_advance.argtypes = [_LONG, _LONG, _D, _D, _D, _D, _D, _D, _B, _D, _D, _D, _D, _I64, _LONG]
 
     def lab(self, y: np.ndarray, v: np.ndarray, inv: np.ndarray, half: np.ndarray, p: dict[str, np.ndarray],
             steps: int) -> None:
@@ -64,8 +66,19 @@ class Native:
         work = np.zeros(2 * n)
         self.lib.warm_start_advance(rows, n, _ptr(y, _D), _ptr(v, _D), _ptr(inv, _D), _ptr(half, _D),
                                     _ptr(p["g"], _D), _ptr(p["dt"], _D), _ptr(p["iterations"], _I64),
-                                    _ptr(p["corrects"], _B), _ptr(p["slop"], _D), _ptr(p["percent"], _D),
-                                    _ptr(p["speculative"], _D), _ptr(impulse, _D), _ptr(work, _D), steps)
+                                    _ptr(p["carry"], _B), _ptr(p["corrects"], _B), _ptr(p["slop"], _D),
+                                    _ptr(p["percent"], _D), _ptr(p["speculative"], _D), _ptr(impulse, _D),
+                                    _ptr(work, _D), steps)
+
+    def exact(self, y: np.ndarray, v: np.ndarray, inv: np.ndarray, half: np.ndarray, p: dict[str, np.ndarray],
+              steps: int) -> None:
+        """``steps`` steps of every row with the exact velocity solve."""
+        rows, n = y.shape
+        work, iwork = np.zeros(10 * n + 7), np.zeros(2 * n + 2, dtype=np.int64)
+        self.lib.exact_advance(rows, n, _ptr(y, _D), _ptr(v, _D), _ptr(inv, _D), _ptr(half, _D), _ptr(p["g"], _D),
+                               _ptr(p["dt"], _D), _ptr(p["corrects"], _B), _ptr(p["slop"], _D),
+                               _ptr(p["percent"], _D), _ptr(p["speculative"], _D), _ptr(work, _D), _ptr(iwork, _I64),
+                               steps)
 
 
 def build(folder: Path) -> Native | str:

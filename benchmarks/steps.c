@@ -1,11 +1,13 @@
 /* C transcriptions of two stackx solvers, the yardstick for the speed benchmark (gcc -O2, one thread).
  *
  * Written from the solvers' stage lists, not generated from stackx: the lab step (solver "pgs": gravity,
- * velocity passes clamping each visit, positions, the lab's position correction) and the warm-started
+ * velocity passes clamping each visit, positions, the lab's position correction), the warm-started
  * accumulated-impulse step (solver "warm-start": gravity, prepare contacts, warm start, velocity
- * iterations clamping each contact's sum, positions, correction). Arrays are (rows, n) row-major; rows are
- * independent variants stepped one after another. The monitors stackx updates after every step are not
- * part of the algorithm and are left out, which only makes the comparison harder for stackx.
+ * iterations clamping each contact's sum, positions, correction) and the exact velocity solve (solver
+ * "exact": gravity, prepare contacts, pool-adjacent-violators solve of the column, positions, correction).
+ * Arrays are (rows, n) row-major; rows are independent variants stepped one after another. The monitors
+ * stackx updates after every step are not part of the algorithms and are left out, which only makes the
+ * comparison harder for stackx.
  *
  * Python's max(a, b) keeps a unless b > a; py_max does the same, so that every result matches the Python
  * and numba code bit for bit (compiled with -ffp-contract=off: no fused multiply-add).
@@ -116,11 +118,15 @@ static void prepare(long n, const double *y, const double *inv, const double *ha
     }
 }
 
-static void warm_start(long n, double *v, const double *inv, const double *impulse)
+/* Apply the impulses carried from the last step, or forget them (carry = 0). */
+static void warm_start(long n, double *v, const double *inv, double *impulse, int carry)
 {
-    for (long k = 0; k < n; k++)
-        if (impulse[k] != 0.0)
+    for (long k = 0; k < n; k++) {
+        if (!carry)
+            impulse[k] = 0.0;
+        else if (impulse[k] != 0.0)
             push(v, inv, k, impulse[k]);
+    }
 }
 
 static void velocity_iteration(long n, double *v, const double *inv, double *impulse, const double *mass,
@@ -138,9 +144,9 @@ static void velocity_iteration(long n, double *v, const double *inv, double *imp
 
 /* work: 2 * n doubles of scratch (per-contact mass and target). impulse carries over between calls. */
 void warm_start_advance(long rows, long n, double *y, double *v, const double *inv, const double *half,
-                        const double *g, const double *dt, const int64_t *iterations, const unsigned char *corrects,
-                        const double *slop, const double *percent, const double *speculative, double *impulse,
-                        double *work, long steps)
+                        const double *g, const double *dt, const int64_t *iterations, const unsigned char *carry,
+                        const unsigned char *corrects, const double *slop, const double *percent,
+                        const double *speculative, double *impulse, double *work, long steps)
 {
     double *mass = work, *target = work + n;
     for (long b = 0; b < rows; b++) {
@@ -149,9 +155,122 @@ void warm_start_advance(long rows, long n, double *y, double *v, const double *i
         for (long s = 0; s < steps; s++) {
             gravity(n, vb, g[b], dt[b]);
             prepare(n, yb, ib, hb, dt[b], speculative[b], pb, mass, target);
-            warm_start(n, vb, ib, pb);
+            warm_start(n, vb, ib, pb, carry[b]);
             for (long k = 0; k < iterations[b]; k++)
                 velocity_iteration(n, vb, ib, pb, mass, target);
+            integrate_positions(n, yb, vb, dt[b]);
+            if (corrects[b])
+                correct_positions(n, yb, ib, hb, slop[b], percent[b]);
+        }
+    }
+}
+
+/* The exact solve of one column's velocity problem (isotonic regression by pool-adjacent-violators), then
+ * each contact's impulse from the momentum changes. Scratch: `work` holds 7 n + 7 doubles, `iwork` 2 n + 2
+ * integers. */
+static void column_impulses(long n, const double *v, const double *u, const double *inv, const double *mass,
+                            const int64_t *block, const int64_t *first, double *impulse)
+{
+    for (long k = 0; k < n; k++)
+        impulse[k] = 0.0;
+    long i = n - 1;
+    while (i >= 0) {
+        if (inv[i] == 0.0) {
+            i -= 1;
+            continue;
+        }
+        long b = i, a = i;
+        while (a > 0 && inv[a - 1] > 0.0 && mass[a] > 0.0 && block[a - 1] == block[a])
+            a -= 1;
+        int top_pinned = b + 1 < n && mass[b + 1] > 0.0 && block[b + 1] == block[b];
+        int bottom_pinned = mass[a] > 0.0 && (a == 0 ? first[block[a]] == -1 : block[a - 1] == block[a]);
+        double total = 0.0, lowest = 0.0;
+        for (long k = b; k > a - 1; k--) {
+            total += (v[k] - u[k]) / inv[k];
+            impulse[k] = total;
+            lowest = total < lowest ? total : lowest;
+        }
+        double carried = 0.0;
+        if (top_pinned && !bottom_pinned)
+            carried = -total;
+        else if (top_pinned)
+            carried = -lowest;
+        if (top_pinned)
+            impulse[b + 1] = carried;
+        for (long k = a; k < b + 1; k++)
+            impulse[k] += carried;
+        if (!bottom_pinned)
+            impulse[a] = 0.0;
+        i = a - 1;
+    }
+}
+
+static void solve_column(long n, double *v, const double *inv, const double *mass, const double *target,
+                         double *impulse, double *work, int64_t *iwork)
+{
+    double *u = work, *shift = work + n, *weight = work + 2 * n, *momentum = work + 3 * n + 1;
+    double *pins = work + 4 * n + 2, *pinned = work + 5 * n + 3, *value = work + 6 * n + 4;
+    int64_t *first = iwork, *block = iwork + n + 2;
+    for (long i = 0; i < n; i++)
+        u[i] = v[i];
+    long top = -1, bottom = 0;
+    double running = 0.0;
+    for (long i = 0; i < n; i++) {
+        if (mass[i] > 0.0) {
+            running += target[i];
+            if (i == 0) {
+                top += 1;
+                first[top] = -1;
+                weight[top] = 0.0, momentum[top] = 0.0, pins[top] = 1.0, pinned[top] = 0.0, value[top] = 0.0;
+            }
+        } else {
+            running = 0.0;
+            bottom = top + 1;
+        }
+        shift[i] = running;
+        double s = u[i] - running;
+        top += 1;
+        first[top] = i;
+        if (inv[i] > 0.0)
+            weight[top] = 1.0 / inv[i], momentum[top] = s / inv[i], pins[top] = 0.0, pinned[top] = 0.0;
+        else
+            weight[top] = 0.0, momentum[top] = 0.0, pins[top] = 1.0, pinned[top] = s;
+        value[top] = s;
+        while (top > bottom && value[top - 1] > value[top]) {
+            weight[top - 1] += weight[top];
+            momentum[top - 1] += momentum[top];
+            pins[top - 1] += pins[top];
+            pinned[top - 1] += pinned[top];
+            top -= 1;
+            value[top] = pins[top] > 0.0 ? pinned[top] / pins[top] : momentum[top] / weight[top];
+        }
+    }
+    first[top + 1] = n;
+    for (long b = 0; b < top + 1; b++) {
+        for (long i = first[b] > 0 ? first[b] : 0; i < first[b + 1]; i++) {
+            block[i] = b;
+            if (inv[i] > 0.0 && first[b + 1] - first[b] > 1)
+                v[i] = value[b] + shift[i];
+        }
+    }
+    column_impulses(n, v, u, inv, mass, block, first, impulse);
+}
+
+/* work: 10 n + 7 doubles, iwork: 2 n + 2 integers of scratch. */
+void exact_advance(long rows, long n, double *y, double *v, const double *inv, const double *half, const double *g,
+                   const double *dt, const unsigned char *corrects, const double *slop, const double *percent,
+                   const double *speculative, double *work, int64_t *iwork, long steps)
+{
+    double *mass = work, *target = work + n, *impulse = work + 2 * n, *scratch = work + 3 * n;
+    for (long b = 0; b < rows; b++) {
+        double *yb = y + b * n, *vb = v + b * n;
+        const double *ib = inv + b * n, *hb = half + b * n;
+        for (long k = 0; k < n; k++)
+            impulse[k] = 0.0;
+        for (long s = 0; s < steps; s++) {
+            gravity(n, vb, g[b], dt[b]);
+            prepare(n, yb, ib, hb, dt[b], speculative[b], impulse, mass, target);
+            solve_column(n, vb, ib, mass, target, impulse, scratch, iwork);
             integrate_positions(n, yb, vb, dt[b]);
             if (corrects[b])
                 correct_positions(n, yb, ib, hb, slop[b], percent[b]);

@@ -24,7 +24,7 @@ from stackx import kernel
 from stackx.config import ExperimentSpec, load
 from stackx.state import ColumnState
 
-TRANSCRIBED = ("pgs", "warm-start")
+TRANSCRIBED = ("pgs", "warm-start", "exact")
 """Solvers with a Python and a C transcription."""
 
 Prepared = Callable[[], None]
@@ -66,6 +66,7 @@ class Subject:
         corr = [getattr(p, "correction", None) for p in ps]
         return {"g": np.array([r.gravity for r in self.spec.runs]), "dt": np.array([r.dt for r in self.spec.runs]),
                 "iterations": np.array([getattr(p, "iterations", 0) for p in ps], dtype=np.int64),
+                "carry": np.array([bool(getattr(p, "warm_start", True)) for p in ps], dtype=np.uint8),
                 "corrects": np.array([c is not None for c in corr], dtype=np.uint8),
                 "slop": np.array([c.slop if c is not None else 0.0 for c in corr]),
                 "percent": np.array([c.percent if c is not None else 0.0 for c in corr]),
@@ -89,6 +90,8 @@ class Subject:
         p = self.params
         if self.solver == "pgs":
             return lambda: native.lab(s.y, s.v, s.inv_mass, s.half, p, steps), s.y
+        if self.solver == "exact":
+            return lambda: native.exact(s.y, s.v, s.inv_mass, s.half, p, steps), s.y
         impulse = np.zeros_like(s.y)
         return lambda: native.warm_start(s.y, s.v, s.inv_mass, s.half, p, impulse, steps), s.y
 
@@ -108,13 +111,16 @@ class Subject:
         ys = [s.y[b].tolist() for b in picked]
         jobs = []
         for y, b in zip(ys, picked):
-            args = [y, s.v[b].tolist(), s.inv_mass[b].tolist(), s.half[b].tolist(), float(p["g"][b]),
-                    float(p["dt"][b]), int(p["iterations"][b]), bool(p["corrects"][b]), float(p["slop"][b]),
-                    float(p["percent"][b])]
+            column = [y, s.v[b].tolist(), s.inv_mass[b].tolist(), s.half[b].tolist(), float(p["g"][b]),
+                      float(p["dt"][b])]
+            correction = [bool(p["corrects"][b]), float(p["slop"][b]), float(p["percent"][b])]
             if self.solver == "pgs":
-                jobs.append((plain.lab_run, [*args, steps]))
+                jobs.append((plain.lab_run, [*column, int(p["iterations"][b]), *correction, steps]))
+            elif self.solver == "exact":
+                jobs.append((plain.exact_run, [*column, *correction, float(p["speculative"][b]), steps]))
             else:
-                jobs.append((plain.warm_start_run, [*args, float(p["speculative"][b]), [0.0] * len(y), steps]))
+                jobs.append((plain.warm_start_run, [*column, int(p["iterations"][b]), bool(p["carry"][b]),
+                                                    *correction, float(p["speculative"][b]), [0.0] * len(y), steps]))
 
         def run() -> None:
             for fn, job in jobs:

@@ -21,6 +21,7 @@ import yaml
 
 from stackx import kernel, registry
 from stackx.config import load
+from stackx.errors import StackxError
 from stackx.runner import run_experiment
 from stackx.session import run_all
 from stackx.state import ColumnState
@@ -86,13 +87,20 @@ def small_case(path: Path, solver: str | None, folder: Path) -> Path:
     return out
 
 
-def run_path(config: Path, jit: str, out: Path, monkeypatch: pytest.MonkeyPatch) -> list[Any]:
+def run_path(config: Path, jit: str, out: Path, monkeypatch: pytest.MonkeyPatch) -> list[Any] | str:
+    """The results of ``stackx run`` on one path, or the error it stopped with (a blow-up is an outcome too)."""
     monkeypatch.setenv("STACKX_JIT", jit)
-    return run_all([load(str(config))], out, quiet=True)
+    try:
+        return run_all([load(str(config))], out, quiet=True)
+    except StackxError as exc:
+        return f"{type(exc).__name__}: {exc}"
 
 
-def assert_same_runs(a: list[Any], b: list[Any]) -> None:
-    """Every recorded state of every run bit-identical, field by field."""
+def assert_same_runs(a: list[Any] | str, b: list[Any] | str) -> None:
+    """Every recorded state of every run bit-identical, field by field (or the same error on both paths)."""
+    if isinstance(a, str) or isinstance(b, str):
+        assert a == b
+        return
     for ra, rb in zip(a[0].runs, b[0].runs, strict=True):
         assert ra.frames.keys() == rb.frames.keys()
         for k in ra.frames:
