@@ -7,10 +7,10 @@ state forward by a number of steps in place and must call ``stackx.monitor.obser
 
 from __future__ import annotations
 
-from typing import Any, ClassVar
+from typing import Annotated, Any, ClassVar
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, BeforeValidator, ConfigDict, Field
 
 from stackx.state import ColumnState
 
@@ -22,8 +22,18 @@ class Correction(BaseModel):
     slop: float = Field(0.01, ge=0, allow_inf_nan=False,
                         description="overlap left alone (m): 0 makes a tiny correction every step and jitters")
     percent: float = Field(0.2, gt=0, le=1, allow_inf_nan=False,
-                           description="share of the overlap beyond slop undone per step: 1.0 oscillates, "
-                                       "small values settle slowly")
+                           description="share of the overlap beyond slop undone per step: small values settle "
+                                       "slowly; the lab warns that 1.0 throws boxes out (configs/hard/percent-1 "
+                                       "measures it)")
+
+
+def _off(value: Any) -> Any:
+    """``correction: off`` (or false) switches the lab's position correction off."""
+    return None if value is False or value == "off" else value
+
+
+LabCorrection = Annotated[Correction | None, BeforeValidator(_off)]
+"""The lab's position correction as a params field: ``{slop, percent}``, or ``off``/null for none."""
 
 
 class Solver:
@@ -46,6 +56,11 @@ class Solver:
                 p = getattr(p, part) if p is not None else None
             out.append(default if p is None else float(p))
         return np.array(out, dtype=np.float64)
+
+    def corrections(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Per batch row of a solver with a ``correction`` knob: whether it runs, its slop and its percent."""
+        on = np.array([p.correction is not None for p in self.params], dtype=np.bool_)
+        return on, self.column("correction.slop"), self.column("correction.percent")
 
     def advance(self, state: ColumnState, steps: int) -> None:
         raise NotImplementedError

@@ -15,24 +15,16 @@ and is 0 for a contact that sits the step out.
 
 from __future__ import annotations
 
-from typing import Annotated, Any
+from typing import Any
 
 import numpy as np
-from pydantic import BaseModel, BeforeValidator, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field
 
 from stackx.kernel import kernel
-from stackx.solvers.base import Correction, Solver
+from stackx.solvers.base import Solver
 from stackx.solvers.pgs import gravity
 from stackx.state import ColumnState
 
-
-def _off(value: Any) -> Any:
-    """``correction: off`` (or false) switches the lab's position correction off."""
-    return None if value is False or value == "off" else value
-
-
-LabCorrection = Annotated[Correction | None, BeforeValidator(_off)]
-"""The lab's position correction as a params field: ``{slop, percent}``, or ``off``/null for none."""
 
 SPECULATIVE_DOC = ("contacts whose gap is below this (m) take part too, allowed to close the gap within the "
                    "step but not more; 0 is the lab's rule (only overlapping contacts push), under which a "
@@ -59,12 +51,6 @@ class ImpulseParams(BaseModel):
                                                "heavy-on-light column; off forgets them, and the iterations "
                                                "rebuild every load from zero each step (the lab's weakness)")
     speculative: float = speculative_field(0.0)
-
-
-def corrections(solver: Solver) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Per batch row of a solver with a ``correction`` knob: whether it runs, its slop and its percent."""
-    on = np.array([p.correction is not None for p in solver.params], dtype=np.bool_)
-    return on, solver.column("correction.slop"), solver.column("correction.percent")
 
 
 class ImpulseSolver(Solver):

@@ -29,8 +29,8 @@ from pydantic import BaseModel, ConfigDict, Field
 from stackx.kernel import kernel, prange
 from stackx.monitor import observe
 from stackx.registry import solvers
-from stackx.solvers.base import Correction, Solver
-from stackx.solvers.contacts import LabCorrection, corrections, prepare, speculative_field
+from stackx.solvers.base import Correction, LabCorrection, Solver
+from stackx.solvers.contacts import prepare, speculative_field
 from stackx.solvers.pgs import correct_positions, gravity, integrate_positions
 from stackx.state import ColumnState
 
@@ -195,7 +195,7 @@ class Exact(Solver):
 
     def __init__(self, params: list[ExactParams], gravity: np.ndarray, dt: np.ndarray) -> None:
         super().__init__(params, gravity, dt)
-        self.corrects, self.slop, self.percent = corrections(self)
+        self.corrects, self.slop, self.percent = self.corrections()
         self.speculative = self.column("speculative")
 
     def advance(self, state: ColumnState, steps: int) -> None:

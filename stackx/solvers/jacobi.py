@@ -26,8 +26,8 @@ from pydantic import Field
 from stackx.kernel import kernel, prange
 from stackx.monitor import observe
 from stackx.registry import solvers
-from stackx.solvers.base import Correction
-from stackx.solvers.contacts import (ImpulseParams, ImpulseSolver, LabCorrection, corrections, prepare, push,
+from stackx.solvers.base import Correction, LabCorrection
+from stackx.solvers.contacts import (ImpulseParams, ImpulseSolver, prepare, push,
                                     relative_velocity, speculative_field, warm_start)
 from stackx.solvers.pgs import correct_positions, gravity, integrate_positions
 from stackx.state import ColumnState
@@ -96,7 +96,7 @@ class Jacobi(ImpulseSolver):
         self.iterations = self.counts("iterations")
         self.carry = self.flags("warm_start")
         self.relaxation = self.column("relaxation")
-        self.corrects, self.slop, self.percent = corrections(self)
+        self.corrects, self.slop, self.percent = self.corrections()
 
     def advance(self, state: ColumnState, steps: int) -> None:
         jacobi_advance(state.y, state.v, state.inv_mass, state.half, self.gravity, self.dt, self.iterations,

@@ -12,13 +12,13 @@ One step, in the lab's order (changing the order changes the numbers):
 from __future__ import annotations
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, field_validator
+from pydantic import BaseModel, ConfigDict, Field
 
 from stackx.correct import correct
 from stackx.kernel import kernel, prange
 from stackx.monitor import observe
 from stackx.registry import solvers
-from stackx.solvers.base import Correction, Solver
+from stackx.solvers.base import Correction, LabCorrection, Solver
 from stackx.state import ColumnState
 
 
@@ -27,14 +27,9 @@ class PGSParams(BaseModel):
     iterations: int = Field(10, gt=0, le=100_000,
                             description="velocity passes per step: more makes a pile more solid and costs "
                                         "linearly more")
-    correction: Correction | None = Field(
+    correction: LabCorrection = Field(
         default_factory=Correction,
         description="position correction; 'off' (or null) leaves overlap to sink in")
-
-    @field_validator("correction", mode="before")
-    @classmethod
-    def _off(cls, value: object) -> object:
-        return None if value is False or value == "off" else value
 
 
 @kernel
@@ -102,9 +97,7 @@ class PGS(Solver):
     def __init__(self, params: list[PGSParams], gravity: np.ndarray, dt: np.ndarray) -> None:
         super().__init__(params, gravity, dt)
         self.iterations = np.array([p.iterations for p in params], dtype=np.int64)
-        self.corrects = np.array([p.correction is not None for p in params], dtype=np.bool_)
-        self.slop = self.column("correction.slop")
-        self.percent = self.column("correction.percent")
+        self.corrects, self.slop, self.percent = self.corrections()
 
     def advance(self, state: ColumnState, steps: int) -> None:
         pgs_advance(state.y, state.v, state.inv_mass, state.half, self.gravity, self.dt, self.iterations,

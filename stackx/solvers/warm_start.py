@@ -28,8 +28,8 @@ from pydantic import Field
 from stackx.kernel import kernel, prange
 from stackx.monitor import observe
 from stackx.registry import solvers
-from stackx.solvers.base import Correction
-from stackx.solvers.contacts import (ImpulseParams, ImpulseSolver, LabCorrection, corrections, solve_velocities,
+from stackx.solvers.base import Correction, LabCorrection
+from stackx.solvers.contacts import (ImpulseParams, ImpulseSolver, solve_velocities,
                                     speculative_field)
 from stackx.solvers.pgs import correct_positions, integrate_positions
 from stackx.state import ColumnState
@@ -73,7 +73,7 @@ class WarmStart(ImpulseSolver):
         super().__init__(params, gravity, dt)
         self.iterations = self.counts("iterations")
         self.carry = self.flags("warm_start")
-        self.corrects, self.slop, self.percent = corrections(self)
+        self.corrects, self.slop, self.percent = self.corrections()
 
     def advance(self, state: ColumnState, steps: int) -> None:
         warm_start_advance(state.y, state.v, state.inv_mass, state.half, self.gravity, self.dt, self.iterations,
