@@ -42,6 +42,14 @@ class Scene:
     def build(self) -> Any:
         raise NotImplementedError
 
+    def size(self) -> int:
+        """Number of boxes at the start, known without building arrays (for checks before stepping)."""
+        raise NotImplementedError
+
+    def final_size(self) -> int:
+        """Number of boxes at the end of a run, which is what measures of the final state index."""
+        return self.size()
+
     def events(self) -> tuple[Event, ...]:
         """What happens to the state during a run, in step order (nothing, unless the scene says so)."""
         return ()

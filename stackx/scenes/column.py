@@ -119,6 +119,9 @@ class Column(Scene):
         p = self.params
         return len(p.boxes) if p.boxes is not None else p.stack.count
 
+    def final_size(self) -> int:
+        return self.size() - len(self.params.remove)
+
     def events(self) -> tuple[RemoveBox, ...]:
         """The removals, each with its box index resolved against the boxes left at its step."""
         left, out = self.size(), []

@@ -43,7 +43,7 @@ class KeyValue(Sink):
     Params = KeyValueParams
 
     def _runs(self, spec) -> dict[str, int]:  # type: ignore[no-untyped-def]
-        return {r.name: r.scene.size() for r in spec.runs}
+        return {r.name: r.scene.final_size() for r in spec.runs}
 
     def check(self, spec, fail) -> None:  # type: ignore[no-untyped-def]
         for key, text in self.params.values.items():

@@ -100,3 +100,25 @@ def test_bad_paths(cli: Cli, args: list[str], words: list[str]) -> None:
     assert done.returncode == 2
     assert len(done.stderr.strip().splitlines()) == 1
     assert all(w in done.stderr for w in words)
+
+
+def test_value_index_counts_the_boxes_left_after_removals(cli: Cli, tmp_path: Path) -> None:
+    text = """scene:
+  name: column
+  stack: {count: 5, y0: 0.501, spacing: 1.0}
+  remove: [{step: 10, box: -1}]
+solver: {name: pgs, iterations: 4}
+steps: 100
+outputs:
+  - sink: keyvalue
+    path: top.txt
+    values: {top: "y[4]"}
+"""
+    config = tmp_path / "removal.yaml"
+    config.write_text(text)
+    done = cli("run", config, "--out", tmp_path / "out")
+    line, col = _position(text, 'y[4]')
+    assert done.returncode == 2
+    assert done.stderr.startswith(f"error: {config}:{line}:{col - 1}: outputs[0].values.top: index 4 out of range")
+    config.write_text(text.replace("y[4]", "y[3]"))
+    assert cli("run", config, "--out", tmp_path / "out", "-q").returncode == 0
