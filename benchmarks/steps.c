@@ -1,4 +1,4 @@
-/* C transcriptions of two stackx solvers, the yardstick for the speed benchmark (gcc -O2, one thread).
+/* C transcriptions of three stackx solvers, the yardstick for the speed benchmark (gcc -O2, one thread).
  *
  * Written from the solvers' stage lists, not generated from stackx: the lab step (solver "pgs": gravity,
  * velocity passes clamping each visit, positions, the lab's position correction), the warm-started

@@ -5,6 +5,10 @@ say ``solver: {name: sor, omega: 1.3}`` without installing anything. It reuses t
 changes one thing: each contact's impulse is scaled by ``omega`` before the clamp. ``omega`` > 1
 over-relaxes (fewer passes for the same error on a stiff column, until it overshoots), ``omega`` < 1
 damps; ``omega`` = 1 is exactly the lab solver.
+
+It is written as every built-in solver is: the params packed into one array per batch row, and a stepping
+loop of ``@kernel`` functions over the rows with ``prange``, so it runs plain or compiled with the same
+numbers.
 """
 
 from __future__ import annotations
@@ -12,10 +16,12 @@ from __future__ import annotations
 import numpy as np
 from pydantic import Field
 
+from stackx.kernel import kernel, prange
 from stackx.monitor import observe
 from stackx.registry import solvers
 from stackx.solvers.base import Solver
 from stackx.solvers.pgs import PGSParams, correct_positions, gravity, integrate_positions
+from stackx.state import ColumnState
 
 
 class SORParams(PGSParams):
@@ -23,10 +29,11 @@ class SORParams(PGSParams):
                          description="relaxation factor: >1 speeds convergence until it overshoots, <1 damps")
 
 
+@kernel
 def relaxed_pass(y: np.ndarray, v: np.ndarray, inv: np.ndarray, half: np.ndarray, omega: float) -> None:
-    """One Gauss-Seidel pass; each contact's impulse is ``omega`` times the exact one, then clamped >= 0."""
+    """One Gauss-Seidel pass; each approaching contact gets ``omega`` times the impulse that would stop it."""
     if half[0] - y[0] > 0.0 and v[0] < 0.0 and inv[0] > 0.0:
-        v[0] -= omega * v[0] if omega * v[0] < 0.0 else 0.0
+        v[0] -= omega * v[0]
     for i in range(y.shape[0] - 1):
         depth = (half[i] + half[i + 1]) - (y[i + 1] - y[i])
         rv = v[i + 1] - v[i]
@@ -37,20 +44,36 @@ def relaxed_pass(y: np.ndarray, v: np.ndarray, inv: np.ndarray, half: np.ndarray
             v[i + 1] += j * inv[i + 1]
 
 
+@kernel
+def sor_advance(y: np.ndarray, v: np.ndarray, inv: np.ndarray, half: np.ndarray, g: np.ndarray, dt: np.ndarray,
+                iterations: np.ndarray, omega: np.ndarray, corrects: np.ndarray, slop: np.ndarray,
+                percent: np.ndarray, peak: np.ndarray, reach: np.ndarray, touched: np.ndarray, launch: np.ndarray,
+                steps: int) -> None:
+    """``steps`` steps of every batch row, in place: the lab's step with relaxed velocity passes."""
+    for b in prange(y.shape[0]):
+        yb, vb, ib, hb = y[b], v[b], inv[b], half[b]  # the row's views, made once
+        for _ in range(steps):
+            gravity(vb, g[b], dt[b])
+            for _ in range(iterations[b]):
+                relaxed_pass(yb, vb, ib, hb, omega[b])
+            integrate_positions(yb, vb, dt[b])
+            if corrects[b]:
+                correct_positions(yb, ib, hb, slop[b], percent[b])
+            observe(yb, vb, hb, peak, reach, touched, launch, b)
+
+
 @solvers.register("sor")
 class SOR(Solver):
     """The lab solver with over-relaxed impulses (``omega``): fewer passes for the same depth, up to a point."""
 
     Params = SORParams
 
-    def advance(self, state, steps: int) -> None:  # type: ignore[no-untyped-def]
-        for b, p in enumerate(self.params):
-            y, v, inv, half = state.y[b], state.v[b], state.inv_mass[b], state.half[b]
-            for _ in range(steps):
-                gravity(v, self.gravity[b], self.dt[b])
-                for _ in range(p.iterations):
-                    relaxed_pass(y, v, inv, half, p.omega)
-                integrate_positions(y, v, self.dt[b])
-                if p.correction is not None:
-                    correct_positions(y, inv, half, p.correction.slop, p.correction.percent)
-                observe(y, v, half, *state.monitors(), b)
+    def __init__(self, params: list[SORParams], gravity: np.ndarray, dt: np.ndarray) -> None:
+        super().__init__(params, gravity, dt)
+        self.iterations = self.counts("iterations")
+        self.omega = self.column("omega")
+        self.corrects, self.slop, self.percent = self.corrections()
+
+    def advance(self, state: ColumnState, steps: int) -> None:
+        sor_advance(state.y, state.v, state.inv_mass, state.half, self.gravity, self.dt, self.iterations,
+                    self.omega, self.corrects, self.slop, self.percent, *state.monitors(), steps)

@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import os
 import sys
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Optional
 
@@ -41,23 +43,18 @@ def _root(version: Annotated[bool, typer.Option("--version", callback=_version, 
     """Run, compare and stress-test rigid-body contact solvers from YAML configs."""
 
 
-def _guard(debug: bool):  # type: ignore[no-untyped-def]
+@contextmanager
+def _guard(debug: bool) -> Iterator[None]:
     """Report ``StackxError`` as a short message with its exit code."""
-    from contextlib import contextmanager
+    from stackx.errors import StackxError
 
-    @contextmanager
-    def guard():  # type: ignore[no-untyped-def]
-        from stackx.errors import StackxError
-
-        try:
-            yield
-        except StackxError as exc:
-            if debug:
-                raise
-            typer.echo(f"error: {' '.join(str(exc).split())}", err=True)  # one line, whatever a plugin said
-            raise typer.Exit(exc.exit_code) from None
-
-    return guard()
+    try:
+        yield
+    except StackxError as exc:
+        if debug:
+            raise
+        typer.echo(f"error: {' '.join(str(exc).split())}", err=True)  # one line, whatever a plugin said
+        raise typer.Exit(exc.exit_code) from None
 
 
 def _load_all(paths: list[str], sets: list[str] | None, plugins: Path | None) -> list[ExperimentSpec]:
@@ -135,11 +132,9 @@ def plugins(plugins: Plugins = None, debug: Debug = False) -> None:
         from rich.table import Table
 
         from stackx import registry
+        from stackx.config import local_plugins
 
-        if plugins is not None:
-            registry.load_local_plugins(plugins)
-        elif Path("plugins").is_dir():
-            registry.load_local_plugins(Path("plugins"))
+        local_plugins(plugins, Path("plugins"))
         _warn_failed_plugins()
         table = Table(title="stackx plugins")
         for col in ("kind", "name", "source", "about"):
@@ -158,13 +153,10 @@ def schema(plugins: Plugins = None, debug: Debug = False,
     with _guard(debug):
         import json
 
-        from stackx import registry
+        from stackx.config import local_plugins
         from stackx.schema import config_schema
 
-        if plugins is not None:
-            registry.load_local_plugins(plugins)
-        elif Path("plugins").is_dir():
-            registry.load_local_plugins(Path("plugins"))
+        local_plugins(plugins, Path("plugins"))
         text = json.dumps(config_schema(), indent=2, sort_keys=True) + "\n"
         if out is None:
             sys.stdout.write(text)

@@ -15,7 +15,7 @@ import reprlib
 from dataclasses import dataclass, field
 from fractions import Fraction
 from pathlib import Path as FsPath
-from typing import Annotated, Any
+from typing import Annotated, Any, NamedTuple
 
 from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, ValidationError, field_validator
 
@@ -165,7 +165,7 @@ def _subtree_marks(src: Source, path: Path) -> dict[Path, Mark]:
 
 def apply_sets(src: Source, sets: list[str]) -> Source:
     """Apply ``--set key.path=value`` overrides (values parsed as YAML) to a loaded config."""
-    out = Source(src.file, copy.deepcopy(src.data), dict(src.values), dict(src.keys))
+    out = src.copy()
     for text in sets:
         key, eq, raw = text.partition("=")
         where = f"--set {text}"
@@ -255,29 +255,55 @@ def _plugin(reg: registry.Registry[Any], section: dict[str, Any], key: str, src:
     return cls, validate_model(cls.Params, rest, src, prefix)
 
 
+class _Override(NamedTuple):
+    """One value a run overrides: the dotted key as written, its path, the value, where it is written, and the
+    marks of the value's own keys and items (relative to it), so errors inside it point into the config."""
+
+    key: str
+    path: Path
+    value: Any
+    origin: Path
+    marks: dict[Path, Mark]
+
+
+def _override(src: Source, key: str, value: Any, origin: Path, key_origin: Path) -> _Override:
+    """Check a per-run override key (refused at ``key_origin``) and bundle it with its value."""
+    try:
+        path = parse_key(key)
+    except ValueError as exc:
+        raise src.error(key_origin, str(exc), key=True) from None
+    if path[0] not in RUN_KEYS:
+        raise src.error(key_origin, f"only {', '.join(RUN_KEYS)} can be overridden per run", key=True)
+    return _Override(key, path, value, origin, _subtree_marks(src, origin))
+
+
 def _variants(exp: ExperimentModel, src: Source) -> list[tuple[str, Source, dict[str, Any]]]:
-    """The runs of an experiment: (name, source with overrides applied, overrides)."""
+    """The runs of an experiment: (name, the run's part of the config with overrides applied, overrides)."""
     if exp.runs is not None and exp.sweep is not None:
         raise src.error(("sweep",), "give either 'runs' or 'sweep', not both", key=True)
-    plans: list[tuple[str, list[tuple[str, Any, Path]]]] = []
+    plans: list[tuple[str, tuple[_Override, ...]]] = []
     if exp.runs is not None:
         if not exp.runs:
             raise src.error(("runs",), "'runs' is empty")
         for name, sets in exp.runs.items():
-            plans.append((name, [(k, v, ("runs", name, k)) for k, v in sets.items()]))
+            plans.append((name, tuple(_override(src, k, v, ("runs", name, k), ("runs", name, k))
+                                      for k, v in sets.items())))
     elif exp.sweep is not None:
-        keys = list(exp.sweep.grid)
-        for index, values in enumerate(itertools.product(*exp.sweep.grid.values())):
-            fill = {"index": str(index), **{k: _fmt(v) for k, v in zip(keys, values)}}
+        options = []  # per grid key, one override per value: each key is checked once, not once per run
+        for k, values in exp.sweep.grid.items():
+            key_origin = ("sweep", "grid", k)
+            options.append([_override(src, k, v, (*key_origin, i), key_origin) for i, v in enumerate(values)])
+        for index, sets in enumerate(itertools.product(*options)):
+            fill = {"index": str(index), **{o.key: _fmt(o.value) for o in sets}}
             try:
                 name = re.sub(r"\{([^{}]+)\}", lambda m: fill[m.group(1)], exp.sweep.name)
             except KeyError as exc:
                 raise src.error(("sweep", "name"), f"unknown field {{{exc.args[0]}}}; allowed: "
                                                    f"{', '.join('{' + k + '}' for k in fill)}") from None
-            pos = [("sweep", "grid", k, i) for k, i in zip(keys, _grid_index(exp.sweep.grid, index))]
-            plans.append((name, [(k, v, p) for k, v, p in zip(keys, values, pos)]))
+            plans.append((name, sets))
     else:
-        plans.append(("main", []))
+        plans.append(("main", ()))
+    base = _run_part(src)
     out, seen = [], set()
     for name, sets in plans:
         if not NAME.match(name):
@@ -285,29 +311,25 @@ def _variants(exp: ExperimentModel, src: Source) -> list[tuple[str, Source, dict
         if name in seen:
             raise src.error(("sweep", "name"), f"two runs are named {name!r}; put every grid key in the name")
         seen.add(name)
-        variant = Source(src.file, copy.deepcopy(src.data), dict(src.values), dict(src.keys))
-        for key, value, origin in sets:
+        variant = base.copy()
+        for o in sets:
             try:
-                path = parse_key(key)
-            except ValueError as exc:
-                raise src.error(origin, str(exc), key=True) from None
-            if not path or path[0] not in RUN_KEYS:
-                raise src.error(origin, f"only {', '.join(RUN_KEYS)} can be overridden per run", key=True)
-            try:
-                _set(variant, path, value, _subtree_marks(src, origin))
+                _set(variant, o.path, o.value, o.marks)
             except KeyError as exc:
-                raise src.error(origin, f"no such place in the config: {exc.args[0]}", key=True) from None
-        out.append((name, variant, {k: v for k, v, _ in sets}))
+                raise src.error(o.origin, f"no such place in the config: {exc.args[0]}", key=True) from None
+        out.append((name, variant, {o.key: o.value for o in sets}))
     return out
 
 
-def _grid_index(grid: dict[str, list[Any]], index: int) -> list[int]:
-    sizes = [len(v) for v in grid.values()]
-    out = []
-    for size in reversed(sizes):
-        out.append(index % size)
-        index //= size
-    return out[::-1]
+def _run_part(src: Source) -> Source:
+    """The part of a config that a run is made of (``RUN_KEYS``, with their marks and the root's): all that a
+    run's overrides change and ``_resolve_run`` reads. It is copied once per run, so it is kept small."""
+
+    def kept(path: Path) -> bool:
+        return not path or path[0] in RUN_KEYS
+
+    return Source(src.file, {k: v for k, v in src.data.items() if k in RUN_KEYS},
+                  {p: m for p, m in src.values.items() if kept(p)}, {p: m for p, m in src.keys.items() if kept(p)})
 
 
 def _fmt(value: Any) -> str:
@@ -315,15 +337,20 @@ def _fmt(value: Any) -> str:
     return text.replace("-", "m").replace(".", "p")
 
 
-def _resolve_run(name: str, src: Source, overrides: dict[str, Any]) -> RunSpec:
-    data = {k: v for k, v in src.data.items() if k in RUN_KEYS}
-    base = validate_model(ExperimentModel, data, src, ())
+def _resolve_run(name: str, src: Source, overrides: dict[str, Any], sections: dict[str, Any]) -> RunSpec:
+    """One run's spec. ``sections`` holds the scenes and solvers made so far by their section's text: runs of
+    a sweep repeat most sections, and one validated once is shared (plugins never change their params)."""
+    base = validate_model(ExperimentModel, src.data, src, ())  # the run's part of the config: see _run_part
     if base.scene is None or base.solver is None:
         missing = "scene" if base.scene is None else "solver"
         raise src.error((missing,), f"a run needs a {missing!r} section")
-    scene_cls, scene_params = _plugin(registry.scenes, base.scene, "name", src, ("scene",))
-    solver_cls, solver_params = _plugin(registry.solvers, base.solver, "name", src, ("solver",))
-    scene = scene_cls(scene_params)
+    scene_key, solver_key = f"scene {base.scene!r}", f"solver {base.solver!r}"
+    if scene_key not in sections:
+        scene_cls, scene_params = _plugin(registry.scenes, base.scene, "name", src, ("scene",))
+        sections[scene_key] = scene_cls(scene_params)
+    if solver_key not in sections:
+        sections[solver_key] = _plugin(registry.solvers, base.solver, "name", src, ("solver",))
+    scene, (solver_cls, solver_params) = sections[scene_key], sections[solver_key]
     if scene.model not in solver_cls.models:
         raise src.error(("solver", "name"), f"solver {solver_cls.plugin_name!r} steps {', '.join(solver_cls.models)}"
                                             f" scenes, not {scene.model!r}")
@@ -346,7 +373,8 @@ def build(src: Source) -> ExperimentSpec:
     exp = validate_model(ExperimentModel, src.data, src, ())
     runs: list[RunSpec] = []
     if exp.scene is not None or exp.solver is not None or exp.runs or exp.sweep:
-        runs = [_resolve_run(name, variant, sets) for name, variant, sets in _variants(exp, src)]
+        sections: dict[str, Any] = {}
+        runs = [_resolve_run(name, variant, sets, sections) for name, variant, sets in _variants(exp, src)]
     outputs: list[Output] = []
     for i, section in enumerate(exp.outputs):
         kinds = [k for k in ("sink", "render") if k in section]
@@ -399,13 +427,20 @@ def nearest_plugins(config: str) -> FsPath | None:
     return None
 
 
-def load(path: str, sets: list[str] | None = None, plugins: FsPath | None = None) -> ExperimentSpec:
-    """Load, override and validate one config file; local plugins (``--plugins`` or nearest) come first."""
+def local_plugins(plugins: FsPath | None, default: FsPath | None) -> FsPath | None:
+    """Import the local plugins of ``--plugins DIR`` (refused when it is not a folder), else of ``default``
+    when it is one; return the folder used."""
     if plugins is not None and not plugins.is_dir():
         raise ConfigError("--plugins: no such folder", file=str(plugins))
-    folder = plugins if plugins is not None else nearest_plugins(path)
+    folder = plugins if plugins is not None else default
     if folder is not None:
         registry.load_local_plugins(folder)
+    return folder
+
+
+def load(path: str, sets: list[str] | None = None, plugins: FsPath | None = None) -> ExperimentSpec:
+    """Load, override and validate one config file; local plugins (``--plugins`` or nearest) come first."""
+    folder = local_plugins(plugins, nearest_plugins(path) if plugins is None else None)
     src = load_file(path)
     if sets:
         src = apply_sets(src, sets)

@@ -11,9 +11,13 @@ def correct(depth: float, slop: float, percent: float, inv_m1: float, inv_m2: fl
     ``percent`` is the share of the remaining overlap undone per step: 1.0 throws objects out and makes them
     oscillate, small values settle slowly (0.2 to 0.8 is usual). The move is split by inverse mass, so the
     lighter side moves more and an immovable side (inverse mass 0) does not move at all.
+
+    The lab's ``max(depth - slop, 0) / total * percent``, with the zero case as an early return: the same
+    numbers (a NaN depth still gives NaN), but compiled code then skips the arithmetic of a contact within
+    slop instead of computing a zero move, which on a resting column made each contact wait for the one below.
     """
     total = inv_m1 + inv_m2
-    if total == 0.0:
+    if total == 0.0 or depth <= slop:
         return 0.0, 0.0
-    c = max(depth - slop, 0.0) / total * percent
+    c = (depth - slop) / total * percent
     return c * inv_m1, c * inv_m2

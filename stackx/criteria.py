@@ -46,19 +46,20 @@ class Criteria(BaseModel):
 
 @dataclass(frozen=True)
 class Check:
-    """One measure against its limit; ``passed`` says whether the measure stayed on the good side."""
+    """One measure against its upper limit: at most the limit, or with ``strict`` below it. A NaN never passes."""
 
     measure: str
     value: float
     limit: float
-    passed: bool
+    strict: bool = False
+
+    @property
+    def passed(self) -> bool:
+        return self.value < self.limit if self.strict else self.value <= self.limit
 
     def describe(self) -> str:
         """``max_depth 0.53 > 0.02``: the measure, its value and how it stands to the limit."""
-        if self.passed:
-            rel = "<=" if self.measure != "rms_motion" else "<"
-        else:
-            rel = ">" if self.measure != "rms_motion" else ">="
+        rel = ("<" if self.strict else "<=") if self.passed else (">=" if self.strict else ">")
         return f"{self.measure} {self.value:.3g} {rel} {self.limit:.3g}"
 
 
@@ -86,14 +87,13 @@ class Verdict:
 
 def judge(measures: Mapping[str, Any], criteria: Criteria) -> dict[str, Verdict]:
     """The three verdicts of one run from its measures (``max_depth``, ``reach``, ``rms_motion``, ``launch``)."""
-    depth, reach = float(measures["max_depth"]), float(measures["reach"])
-    motion, launch = float(measures["rms_motion"]), float(measures["launch"])
+    def check(measure: str, limit: float, strict: bool = False) -> Check:
+        return Check(measure, float(measures[measure]), limit, strict)
+
     return {
-        "holds": Verdict("holds", (Check("max_depth", depth, criteria.depth_limit, depth <= criteria.depth_limit),
-                                   Check("reach", reach, criteria.reach, reach <= criteria.reach))),
-        "settled": Verdict("settled", (Check("rms_motion", motion, criteria.settle, motion < criteria.settle),)),
-        "never_launched": Verdict("never_launched",
-                                  (Check("launch", launch, criteria.launch, launch <= criteria.launch),)),
+        "holds": Verdict("holds", (check("max_depth", criteria.depth_limit), check("reach", criteria.reach))),
+        "settled": Verdict("settled", (check("rms_motion", criteria.settle, strict=True),)),
+        "never_launched": Verdict("never_launched", (check("launch", criteria.launch),)),
     }
 
 

@@ -79,8 +79,9 @@ def min_work() -> int:
         return DEFAULT_WORK
 
 
+@functools.cache
 def available() -> bool:
-    """Whether numba can be imported."""
+    """Whether numba can be imported (asked once: a failed import is not cheap, and it does not change)."""
     try:
         import numba  # noqa: F401
     except ImportError:

@@ -63,7 +63,11 @@ def check(spec: ExperimentSpec, limits: Limits) -> None:
         raise spec.source.error(("steps",), f"steps x boxes x solver passes = {total:.3g}, over "
                                 f"limits.max_work = {limits.max_work:g}; use fewer steps, boxes or "
                                 "iterations, or raise the limit")
+    started: set[int] = set()
     for run in spec.runs:
+        if id(run.scene) in started:
+            continue  # runs with the same scene section share one scene (see config._resolve_run): built once
+        started.add(id(run.scene))
         fastest = _fastest_start(run)
         if fastest is not None and fastest > limits.max_speed:
             raise spec.source.error(("scene",), f"run {run.name!r} starts with a box at {fastest:g} m/s, over "

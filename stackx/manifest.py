@@ -7,21 +7,25 @@ whole, a file now written by another experiment leaves the old one's list, and e
 run again stay, since their files are still there untouched.
 
 An entry holds what is needed to make the files again and to check them:
-- ``config``: the config file (absolute path) and ``config_sha256``, its bytes when it ran;
+- ``config``: the config file and ``config_sha256``, its bytes when it ran;
 - ``sets`` and ``plugins``: the ``--set`` overrides and the local plugin folder it was loaded with;
 - ``resolved``: the config as it was run: overrides applied, ``runs``/``sweep`` expanded to one entry per
   run, every default filled in by the plugins' params models (see ``config._resolved``);
 - ``plugins_used``: each plugin the experiment used and where it came from, with the SHA-256 of a local file;
 - ``artifacts``: file name -> ``{sha256, bytes}``.
 At the top: the stackx, Python and dependency versions, and ``volatile``: files left out on purpose
-(``timing.json``, wall-clock times). There is no time stamp, so the same configs give the same manifest,
-byte for byte, and ``stackx verify`` compares with it.
+(``timing.json``, wall-clock times). There is no time stamp, and paths of files (the config, the plugin folder,
+a local plugin's file) are written as seen from the output folder, so the same configs give the same manifest,
+byte for byte, wherever the folders are (two checkouts, or one moved with its output folder inside), and
+``stackx verify`` compares with it.
 """
 
 from __future__ import annotations
 
+import functools
 import hashlib
 import json
+import os
 import platform
 from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
@@ -40,6 +44,7 @@ def sha256(data: bytes) -> str:
     return hashlib.sha256(data).hexdigest()
 
 
+@functools.cache
 def versions() -> dict[str, str]:
     """Python and every runtime dependency, as installed."""
     out = {"python": platform.python_version()}
@@ -51,37 +56,50 @@ def versions() -> dict[str, str]:
     return out
 
 
-def _source(plugin: Any) -> dict[str, str]:
+def relative(path: str | Path, folder: Path) -> str:
+    """``path`` as seen from the output ``folder`` (a path on another drive stays absolute)."""
+    try:
+        return os.path.relpath(Path(path).resolve(), folder.resolve())
+    except ValueError:
+        return str(Path(path).resolve())
+
+
+def located(path: str, folder: Path) -> Path:
+    """A path the manifest of ``folder`` records, as a path from here (an absolute one as it is)."""
+    return Path(os.path.normpath(folder.resolve() / path))
+
+
+def _source(plugin: Any, folder: Path) -> dict[str, str]:
     origin = str(getattr(plugin, "plugin_origin", "unknown"))
     out = {"source": origin}
     if origin.endswith(".py") and Path(origin).is_file():
-        out = {"source": str(Path(origin).resolve()), "sha256": sha256(Path(origin).read_bytes())}
+        out = {"source": relative(origin, folder), "sha256": sha256(Path(origin).read_bytes())}
     return out
 
 
-def plugins_used(spec: Any) -> dict[str, dict[str, str]]:
+def plugins_used(spec: Any, folder: Path) -> dict[str, dict[str, str]]:
     """``kind:name`` -> where the plugin came from, for every plugin the experiment used."""
+    from stackx.outputs import Renderer
+
     used: dict[str, Any] = {}
     for run in spec.runs:
         used[f"scene:{run.scene.plugin_name}"] = run.scene
         used[f"solver:{run.solver_cls.plugin_name}"] = run.solver_cls
     for output in spec.outputs:
-        from stackx.outputs import Renderer
-
         used[f"{'renderer' if isinstance(output, Renderer) else 'sink'}:{output.plugin_name}"] = output
-    return {key: _source(plugin) for key, plugin in sorted(used.items())}
+    return {key: _source(plugin, folder) for key, plugin in sorted(used.items())}
 
 
-def entry(spec: Any, files: dict[str, bytes]) -> dict[str, Any]:
-    """The manifest entry of one experiment that wrote ``files``."""
+def entry(spec: Any, files: dict[str, bytes], folder: Path) -> dict[str, Any]:
+    """The manifest entry of one experiment that wrote ``files`` into ``folder``."""
     config = Path(spec.file)
     return {
-        "config": str(config.resolve()),
+        "config": relative(config, folder),
         "config_sha256": sha256(config.read_bytes()) if config.is_file() else None,
         "sets": list(spec.sets),
-        "plugins": spec.plugins,
+        "plugins": relative(spec.plugins, folder) if spec.plugins is not None else None,
         "resolved": spec.resolved,
-        "plugins_used": plugins_used(spec),
+        "plugins_used": plugins_used(spec, folder),
         "artifacts": {name: {"sha256": sha256(data), "bytes": len(data)} for name, data in sorted(files.items())},
     }
 
@@ -119,4 +137,4 @@ def merged(doc: dict[str, Any] | None, name: str, new: dict[str, Any]) -> dict[s
 
 def record(folder: Path, spec: Any, files: dict[str, bytes]) -> None:
     """Merge the entry of ``spec``, which just wrote ``files``, into the folder's manifest (atomically)."""
-    write_json(folder / MANIFEST, merged(read(folder), spec.name, entry(spec, files)))
+    write_json(folder / MANIFEST, merged(read(folder), spec.name, entry(spec, files, folder)))

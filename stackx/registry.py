@@ -199,7 +199,7 @@ class Failure:
 
 _failures: list[Failure] = []
 
-_REGISTRY_NAMES = {"scenes": "scene", "solvers": "solver", "renderers": "renderer", "sinks": "sink"}
+_REGISTRY_NAMES = {f"{kind}s": kind for kind in ALL}  # the module globals above: solvers -> solver
 
 
 def _declared(path: Path) -> dict[str, set[str]] | None:

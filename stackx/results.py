@@ -2,10 +2,28 @@
 
 from __future__ import annotations
 
+from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field
 
 from stackx.config import ExperimentSpec, RunSpec
 from stackx.state import ColumnState
+
+
+class RunFrames(Mapping[int, ColumnState]):
+    """One run's recorded states: row ``b`` of each recorded state of its batch, made when looked up (a sweep
+    records some 60 states of thousands of rows, and outputs look at a few of them, of one run)."""
+
+    def __init__(self, batch: Mapping[int, ColumnState], b: int) -> None:
+        self.batch, self.b = batch, b
+
+    def __getitem__(self, step: int) -> ColumnState:
+        return self.batch[step].row(self.b)
+
+    def __iter__(self) -> Iterator[int]:
+        return iter(self.batch)
+
+    def __len__(self) -> int:
+        return len(self.batch)
 
 
 @dataclass
@@ -18,13 +36,18 @@ class RunResult:
 
     spec: RunSpec
     final: ColumnState
-    frames: dict[int, ColumnState]
+    frames: Mapping[int, ColumnState]
     measures: dict[str, float | list[float]]
     wall_seconds: float = 0.0
 
     @property
     def name(self) -> str:
         return self.spec.name
+
+    @property
+    def us_per_step(self) -> float:
+        """Wall-clock microseconds per step charged to this run."""
+        return 1e6 * self.wall_seconds / self.spec.steps
 
 
 @dataclass

@@ -19,7 +19,7 @@ from stackx import kernel
 from stackx.config import ExperimentSpec, RunSpec
 from stackx.errors import BlowUp, RunError
 from stackx.metrics import measure, motion_steps
-from stackx.results import ExperimentResult, RunResult
+from stackx.results import ExperimentResult, RunFrames, RunResult
 from stackx.state import ColumnState
 from stackx.watch import Watch, add_finished, first_line
 
@@ -86,20 +86,18 @@ def _run_batch(spec: ExperimentSpec, runs: list[RunSpec], progress: Progress | N
         if stop in events:
             events[stop].apply(state, solver)
         frames[stop] = state.copy()
-    out = []
-    rows = {k: s.rows() for k, s in frames.items()}  # each run's view of each recorded state, in one pass
-    for b, run in enumerate(runs):
-        row = {k: r[b] for k, r in rows.items()}
-        final = row[steps]
-        out.append(RunResult(run, final, row, measure(final, row, steps, run.dt), wall / len(runs)))
-    return out
+    measures = measure(frames, steps, np.array([r.dt for r in runs]))
+    return [RunResult(run, frames[steps].row(b), RunFrames(frames, b), measures[b], wall / len(runs))
+            for b, run in enumerate(runs)]
 
 
 def _setup(spec: ExperimentSpec, runs: list[RunSpec]) -> tuple[ColumnState, Any]:
     """The batch's initial state and its solver; a scene or solver plugin failing here is named with its file."""
     plugin = runs[0].scene
     try:
-        state = ColumnState.concat([r.scene.build() for r in runs])
+        scenes = {id(r.scene): r.scene for r in runs}  # runs with the same scene section share one scene
+        starts = {key: scene.build() for key, scene in scenes.items()}
+        state = ColumnState.concat([starts[id(r.scene)] for r in runs])
         plugin = runs[0].solver_cls
         solver = runs[0].solver_cls([r.solver_params for r in runs], np.array([r.gravity for r in runs]),
                                     np.array([r.dt for r in runs]))

@@ -19,12 +19,10 @@ from rich.table import Table
 from stackx import manifest
 from stackx.config import ExperimentSpec
 from stackx.errors import BlowUp, ConfigError, RunError
-from stackx.outdir import TIMING, OutputDir, atomic_write, confine, failed_file, write_json
+from stackx.outdir import TIMING, OutputDir, confine, failed_file, write_json
 from stackx.results import ExperimentResult
 from stackx.runner import run_experiment
 from stackx.watch import first_line
-
-TIMING_FILE = TIMING
 
 
 def run_all(specs: list[ExperimentSpec], out: Path, quiet: bool = False) -> list[ExperimentResult]:
@@ -98,10 +96,9 @@ def _write_timing(results: list[ExperimentResult], out: Path) -> None:
         doc = {}
     for result in results:
         if result.runs:
-            doc[result.spec.name] = {r.name: {"us_per_step": 1e6 * r.wall_seconds / r.spec.steps,
-                                              "wall_seconds": r.wall_seconds} for r in result.runs}
-    out.mkdir(parents=True, exist_ok=True)
-    atomic_write(path, (json.dumps(doc, indent=2, sort_keys=True) + "\n").encode())
+            doc[result.spec.name] = {r.name: {"us_per_step": r.us_per_step, "wall_seconds": r.wall_seconds}
+                                      for r in result.runs}
+    write_json(path, doc)
 
 
 def summary(results: list[ExperimentResult], out: Path) -> Table:
@@ -117,5 +114,5 @@ def summary(results: list[ExperimentResult], out: Path) -> Table:
             m = r.measures
             table.add_row(result.spec.name, r.name, r.spec.solver_cls.plugin_name, str(r.final.boxes),
                           str(r.spec.steps), f"{m['max_depth']:.5f}", f"{m['peak_depth']:.5f}",
-                          f"{m['rms_motion']:.2e}", f"{1e6 * r.wall_seconds / r.spec.steps:.1f}")
+                          f"{m['rms_motion']:.2e}", f"{r.us_per_step:.1f}")
     return table

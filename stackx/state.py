@@ -6,7 +6,6 @@ leading batch axis so that variants of the same shape step together; a single ru
 
 from __future__ import annotations
 
-from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -34,7 +33,7 @@ class ColumnState:
         for name in ("y", "v", "inv_mass", "half"):
             setattr(self, name, np.ascontiguousarray(getattr(self, name), dtype=np.float64))
         if all(getattr(self, k) is not None for k in self.MONITORS):
-            return  # a copy or a row: nothing to derive (this runs for every recorded frame of every run)
+            return  # a copy: nothing to derive (this runs for every recorded state and solver call)
         d = self.depths()
         if self.peak_depth is None:
             self.peak_depth = np.maximum(d.max(axis=1), 0.0)
@@ -86,20 +85,10 @@ class ColumnState:
         return ColumnState(*(getattr(self, k).copy() for k in self.FIELDS))
 
     def row(self, b: int) -> ColumnState:
-        """Batch row ``b`` as a batch of one (views, not copies). Made for every recorded state of every run
-        of a batch, so it skips what building a state checks and derives: its arrays are already right."""
-        return ColumnState._of([getattr(self, k)[b:b + 1] for k in self.FIELDS])
-
-    def rows(self) -> list[ColumnState]:
-        """Every batch row as ``row(b)`` gives it, made in one pass over each array (a sweep has thousands)."""
-        return [ColumnState._of(values) for values in zip(*(list(getattr(self, k)[:, None]) for k in self.FIELDS))]
-
-    @staticmethod
-    def _of(values: Sequence[np.ndarray]) -> ColumnState:
-        """A state from arrays already of the right type and shape, in ``FIELDS`` order: nothing checked or
-        derived, for views of an existing state."""
+        """Batch row ``b`` as a batch of one (views, not copies). Made for each run of a batch and each state
+        looked at, so it skips what building a state checks and derives: its arrays are already right."""
         out = object.__new__(ColumnState)
-        out.__dict__.update(zip(ColumnState.FIELDS, values))
+        out.__dict__.update((k, getattr(self, k)[b:b + 1]) for k in self.FIELDS)
         return out
 
     @staticmethod

@@ -1,7 +1,8 @@
 """``stackx verify DIR``: run the manifest's configs again and compare every byte.
 
 Each experiment in ``DIR/manifest.json`` is loaded again the way it was (same config file, ``--set``
-overrides and plugin folder), stepped, and its outputs are made in memory (nothing in ``DIR`` is written).
+overrides and plugin folder, their paths taken from ``DIR`` as the manifest records them), stepped, and its
+outputs are made in memory (nothing in ``DIR`` is written).
 Each artifact is compared three ways: the re-run against the manifest's SHA-256, the file on disk against
 the manifest, and, where they differ, the re-run against the file on disk, to give the first byte that
 differs. The manifest entry the re-run would write (resolved config, plugins, versions) is compared too.
@@ -51,14 +52,14 @@ def verify_experiment(folder: Path, name: str, listed: dict[str, Any], say: Say)
     from stackx.runner import run_experiment
     from stackx.session import stage
 
-    config = Path(listed["config"])
+    config = manifest.located(listed["config"], folder)
     if not config.is_file():
         say(f"DIFF {name}: its config {config} is gone")
         return 1
     notes = []
     if manifest.sha256(config.read_bytes()) != listed.get("config_sha256"):
         notes.append(f"note {name}: {config} has changed since the run")
-    plugins = Path(listed["plugins"]) if listed.get("plugins") else None
+    plugins = manifest.located(listed["plugins"], folder) if listed.get("plugins") else None
     try:
         spec = load(str(config), listed.get("sets") or None, plugins)
         files = stage(run_experiment(spec), folder).staged
@@ -70,7 +71,7 @@ def verify_experiment(folder: Path, name: str, listed: dict[str, Any], say: Say)
         problems += _artifact(artifact, entry, files.get(artifact), folder / artifact)
     problems += [f"{extra}: written by the re-run, not in the manifest" for extra in sorted(files)
                  if extra not in listed["artifacts"] and extra not in manifest.VOLATILE]
-    again = manifest.entry(spec, {k: v for k, v in files.items() if k in listed["artifacts"]})
+    again = manifest.entry(spec, {k: v for k, v in files.items() if k in listed["artifacts"]}, folder)
     for key in ("resolved", "plugins_used"):
         if again[key] != listed.get(key):
             problems.append(f"{key}: the re-run's differs from the manifest's")

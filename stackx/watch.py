@@ -94,11 +94,10 @@ class Watch:
     def advance(self, state: ColumnState, done: int, n: int) -> None:
         """``solver.advance(state, n)``, turning its failures and broken results into ``RunError``."""
         shapes = {k: (getattr(state, k).shape, getattr(state, k).dtype) for k in ColumnState.FIELDS}
-        span = f"steps {done + 1}..{done + n} of run(s) {', '.join(map(repr, self.names))}"
         try:
             returned = self.solver.advance(state, n)
         except Exception as exc:
-            raise RunError(f"{self.file}: {self.where} raised in {span}: {first_line(exc)}") from exc
+            raise RunError(f"{self.file}: {self.where} raised in {self._span(done, n)}: {first_line(exc)}") from exc
         if returned is not None:
             raise RunError(f"{self.file}: {self.where}: advance must change the state in place and return "
                            f"None; it returned {type(returned).__name__}")
@@ -106,8 +105,12 @@ class Watch:
             got = getattr(state, name)
             if not isinstance(got, np.ndarray) or got.shape != shape or got.dtype != dtype:
                 what = f"{got.shape} {got.dtype}" if isinstance(got, np.ndarray) else type(got).__name__
-                raise RunError(f"{self.file}: {self.where} left state.{name} as {what} in {span}; it must stay "
-                               f"{shape} {dtype}")
+                raise RunError(f"{self.file}: {self.where} left state.{name} as {what} in {self._span(done, n)}; "
+                               f"it must stay {shape} {dtype}")
+
+    def _span(self, done: int, n: int) -> str:
+        """The steps of a call and its runs, for a message (made only then: a sweep has thousands of runs)."""
+        return f"steps {done + 1}..{done + n} of run(s) {', '.join(map(repr, self.names))}"
 
     def check(self, state: ColumnState, done: int, n: int) -> None:
         """After ``advance``: find the first bad step of the call, if the state went bad, and raise."""

@@ -7,10 +7,13 @@ Duplicate keys, which PyYAML silently lets the last one win, are refused.
 
 from __future__ import annotations
 
+import copy
 from dataclasses import dataclass, field
 from typing import Any
 
 import yaml
+
+from stackx.errors import ConfigError
 
 Path = tuple[str | int, ...]
 
@@ -33,6 +36,10 @@ class Source:
     values: dict[Path, Mark] = field(default_factory=dict)
     keys: dict[Path, Mark] = field(default_factory=dict)
 
+    def copy(self) -> Source:
+        """A copy whose data and marks can be changed without touching this one (marks are immutable)."""
+        return Source(self.file, copy.deepcopy(self.data), dict(self.values), dict(self.keys))
+
     def mark(self, path: Path, *, key: bool = False) -> Mark:
         """The mark of ``path`` (its key when ``key``), or of its nearest ancestor that has one."""
         table = self.keys if key else self.values
@@ -42,10 +49,8 @@ class Source:
                 return hit
         return Mark(self.file, 1, 1)
 
-    def error(self, path: Path, message: str, *, key: bool = False) -> "ConfigError":
+    def error(self, path: Path, message: str, *, key: bool = False) -> ConfigError:
         """A ``ConfigError`` located at ``path``."""
-        from stackx.errors import ConfigError
-
         m = self.mark(path, key=key)
         return ConfigError(message, file=m.file, line=m.line, col=m.col, key=dotted(path) or None)
 
@@ -64,8 +69,6 @@ def _mark(file: str, node: yaml.Node) -> Mark:
 
 def load_text(text: str, file: str) -> Source:
     """Parse one YAML document; raise ``ConfigError`` with the position of any syntax error."""
-    from stackx.errors import ConfigError
-
     try:
         loader = yaml.SafeLoader(text)
     except yaml.reader.ReaderError as exc:
@@ -98,8 +101,6 @@ def _position(text: str, offset: int) -> dict[str, int]:
 
 def load_file(path: str) -> Source:
     """Read and parse a YAML file (errors name the file)."""
-    from stackx.errors import ConfigError
-
     try:
         with open(path, "rb") as fh:
             raw = fh.read()
@@ -115,8 +116,6 @@ def load_file(path: str) -> Source:
 
 
 def _build(loader: yaml.SafeLoader, node: yaml.Node, path: Path, src: Source) -> Any:
-    from stackx.errors import ConfigError
-
     src.values[path] = _mark(src.file, node)
     plain = {yaml.MappingNode: "tag:yaml.org,2002:map", yaml.SequenceNode: "tag:yaml.org,2002:seq"}
     if type(node) in plain and node.tag != plain[type(node)]:  # scalars' tags are checked by the constructor

@@ -18,11 +18,13 @@ Cli = Callable[..., subprocess.CompletedProcess[str]]
 
 @pytest.fixture
 def cli() -> Cli:
-    """Run ``python -m stackx ARGS`` in a subprocess and return the completed process (text output)."""
+    """Run ``python -m stackx ARGS`` in a subprocess and return the completed process (text output). The
+    package is this checkout's, from any working folder (not whichever copy is installed)."""
+    path = os.pathsep.join(p for p in (str(REPO), os.environ.get("PYTHONPATH")) if p)
 
     def run(*args: str, cwd: Path = REPO, env: dict[str, str] | None = None,
             timeout: float = 120) -> subprocess.CompletedProcess[str]:
         return subprocess.run([sys.executable, "-m", "stackx", *map(str, args)], cwd=cwd, capture_output=True,
-                              text=True, timeout=timeout, env={**os.environ, **(env or {})})
+                              text=True, timeout=timeout, env={**os.environ, "PYTHONPATH": path, **(env or {})})
 
     return run

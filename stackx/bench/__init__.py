@@ -2,10 +2,13 @@
 
 - ``case``: the ``bench:`` section of a config (criteria, knob values, settings, a lab claim to measure);
 - ``plan``: which solver runs with which parameters on a case;
-- ``sweep``: the batched runs, the timings and the error against the exact solver;
+- ``sweep``: the batched runs of a case, each measured and judged (``stackx.criteria``);
+- ``measures``: what the bench measures beyond a run's own measures (the top box's rest height and motion);
+- ``accuracy``: the error against the exact solver; ``timing``: microseconds per step, measured apart;
 - ``claims``: the lab's claims (percent 1.0 oscillates, slop 0 jitters), measured;
 - ``compare``: stability matrix, Pareto fronts and equal-cost winners;
-- ``report``: terminal tables, ``bench.json``, ``report.html`` and its plots.
+- ``report``: ``bench.json`` and ``report.html``; ``plots``: its PNGs; ``tables``: the terminal tables;
+- ``command``: the command itself, from loading the cases to writing the folder.
 
-This package is imported by ``stackx bench`` only; ``case`` stays light (pydantic) because configs use it.
+Only ``stackx bench`` imports the rest of this package; ``case`` stays light (pydantic) because configs use it.
 """

@@ -42,6 +42,7 @@ class Cell:
     tried: list[int | None]
     shown: int | None       # the knob value the failure is shown at (the largest tried)
     failing: str
+    failed: list[str]       # the measures that failed there (empty when passed or when the run blew up)
 
     def text(self) -> str:
         if self.passed:
@@ -56,10 +57,7 @@ class Cell:
         ``FAIL`` and the measures that failed."""
         if self.passed:
             return "pass" if self.knob is None else f"pass {self.passing[0]} ({len(self.passing)}/{len(self.tried)})"
-        if self.failing.startswith("blew up"):
-            return "FAIL blew up"
-        return "FAIL " + " ".join(part.split(": ", 1)[1].split()[0] for part in self.failing.split("; ")
-                                  if ": " in part)
+        return "FAIL " + (" ".join(self.failed) or "blew up")
 
     def as_dict(self) -> dict[str, Any]:
         return {"passed": self.passed, "knob": self.knob, "passing": self.passing, "tried": self.tried,
@@ -75,8 +73,9 @@ def cell(records: list[Record]) -> Cell:
     recs = sorted(case_records(records), key=lambda r: r.value or 0)
     passing = [r.value for r in recs if r.passed]
     last = recs[-1]
+    failed = [c["measure"] for v in last.criteria.values() for c in v["checks"] if not c["passed"]]
     return Cell(bool(passing), last.knob, passing, [r.value for r in recs], last.value,
-                "" if passing else failing(last))
+                "" if passing else failing(last), [] if passing else failed)
 
 
 def matrix(records: Iterable[Record]) -> dict[str, dict[str, Cell]]:

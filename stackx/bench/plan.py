@@ -6,7 +6,7 @@ parameter, and the case's settings (``bench.set``) reach only the solvers whose 
 
 A solver's parameters on a case are, in order: its defaults; the config's own ``solver:`` section when the
 config names this solver (so the lab solver runs at the lab's settings, and its knob value joins the
-sweep); ``bench.set``; the knob value. A claim's baseline adds its settings last.
+sweep); ``bench.set``; a claim's baseline, for the runs beside the case's setting; the knob value.
 """
 
 from __future__ import annotations
@@ -93,7 +93,7 @@ def _validate(cls: type, data: dict[str, Any], spec: ExperimentSpec, places: dic
                                        f"{err['msg']}") from None
 
 
-def _defaults(cls: type, spec: ExperimentSpec, run: RunSpec) -> dict[str, Any] | None:
+def _defaults(cls: type, run: RunSpec) -> dict[str, Any] | None:
     """The solver's starting parameters as plain data, or None when it has required parameters."""
     if cls is run.solver_cls:
         return run.solver_params.model_dump(mode="python")
@@ -121,7 +121,7 @@ def plan_solver(cls: type, spec: ExperimentSpec, run: RunSpec, section: BenchSec
     name = cls.plugin_name
     if run.scene.model not in cls.models:
         return f"steps {', '.join(cls.models)} scenes, not {run.scene.model!r}"
-    defaults = _defaults(cls, spec, run)
+    defaults = _defaults(cls, run)
     if defaults is None:
         return "has parameters without defaults"
     plan = SolverPlan(name, cls, knob_of(cls), [])

@@ -7,7 +7,6 @@ the records; the fixed text only defines the measures.
 
 from __future__ import annotations
 
-import hashlib
 import html
 import json
 import math
@@ -16,21 +15,25 @@ import platform
 import sys
 from dataclasses import dataclass, field
 from importlib import metadata
+from pathlib import Path
 from typing import Any
 
+from stackx import __version__, manifest
 from stackx.bench.claims import finding
 from stackx.bench.compare import TARGETS, Cell, case_records, equal_cost, failing, label, matrix, pareto
+from stackx.bench.measures import STILL
 from stackx.bench.plan import Case
 from stackx.bench.plots import speed_error_png
 from stackx.bench.sweep import Record
 from stackx.criteria import NAMES
+from stackx.metrics import MOTION_WINDOW
 from stackx.outdir import OutputDir
 
 DEFINITIONS = {
     "holds": "the largest contact depth in the final state is at most criteria.depth_factor x criteria.slop, and no "
-             "box ever passed half-way into its neighbour or below the floor (reach <= 1)",
-    "settled": "the RMS of the boxes' actual motion (y_now - y_prev)/dt over the last 60 steps is below "
-               "criteria.settle (stored velocities that move nothing do not count)",
+             "box ever passed half-way into its neighbour or below the floor (reach <= criteria.reach, 1 by default)",
+    "settled": f"the RMS of the boxes' actual motion (y_now - y_prev)/dt over the last {MOTION_WINDOW} steps is "
+               "below criteria.settle (stored velocities that move nothing do not count)",
     "never_launched": "no box moved upward faster than criteria.launch after it first touched something",
     "error": "along the solver's own run, at sampled steps: from the state before the step, the exact solver's "
              "velocity stage gives the step's exact velocities (gravity, then no contact approaching and none "
@@ -48,9 +51,9 @@ DEFINITIONS = {
             "the config's own value; a solver without a knob runs once",
     "top_rest_error": "final height of the top box minus its height on a rigid column (heights of the boxes "
                       "below plus its half-height); negative: the column sank",
-    "top_p2p": "peak-to-peak height of the top box over the last 60 steps",
+    "top_p2p": f"peak-to-peak height of the top box over the last {MOTION_WINDOW} steps",
     "top_reversals": "(cases with a claim) how many times the top box's step-to-step motion changed direction "
-                     "over the whole run once it rested on something, steps under 1e-9 m skipped",
+                     f"over the whole run once it rested on something, steps under {STILL:g} m skipped",
     "top_rise": "(cases with a claim) the top box's fastest upward motion from positions, (y_next - y)/dt",
     "claim": "a lab claim is measured on pairs of runs, the case's setting and the lab's, for every solver that "
              "has the setting and every knob value; a pair bears it out when the case's setting still moves at "
@@ -83,8 +86,7 @@ class CaseResult:
 
 def config_hash(path: str) -> str:
     """SHA-256 of the config file's bytes: which exact config produced a record."""
-    with open(path, "rb") as fh:
-        return hashlib.sha256(fh.read()).hexdigest()
+    return manifest.sha256(Path(path).read_bytes())
 
 
 def machine() -> dict[str, Any]:
@@ -94,14 +96,9 @@ def machine() -> dict[str, Any]:
             "cpus": os.cpu_count(), "python": sys.version.split()[0], "compiled_kernels": kernel.enabled()}
 
 
-def versions() -> dict[str, str | None]:
-    out: dict[str, str | None] = {}
-    for dist in ("stackx", "numpy", "numba", "pydantic", "matplotlib"):
-        try:
-            out[dist] = metadata.version(dist)
-        except metadata.PackageNotFoundError:
-            out[dist] = None
-    return out
+def versions() -> dict[str, str]:
+    """stackx, Python and every dependency, as the manifest records them, and matplotlib, which draws the plots."""
+    return {"stackx": __version__, **manifest.versions(), "matplotlib": metadata.version("matplotlib")}
 
 
 def _case_doc(res: CaseResult) -> dict[str, Any]:
@@ -173,7 +170,8 @@ def _e(text: object) -> str:
     return html.escape(str(text))
 
 
-def _num(value: float | None, fmt: str = ".3g") -> str:
+def number(value: float | None, fmt: str = ".3g") -> str:
+    """A measure for a table; ``-`` where there is none."""
     return "-" if value is None else format(value, fmt)
 
 
@@ -210,11 +208,11 @@ def _records_html(res: CaseResult) -> str:
     for r in case_records(res.records):
         m = r.measures
         line = [_td(r.solver, "l"), _td(f"{r.knob} {r.value}" if r.knob else "-", "l"),
-                _td(_num(r.us_per_step, ".2f")), _td(_num(r.error.get("rms"))), _td(_num(r.error.get("max")))]
+                _td(number(r.us_per_step, ".2f")), _td(number(r.error.get("rms"))), _td(number(r.error.get("max")))]
         if r.blew_up:
             line += [_td("-")] * len(MEASURES)
         else:
-            line += [_td(_num(m.get(k))) for k in MEASURES]
+            line += [_td(number(m.get(k))) for k in MEASURES]
         for name in NAMES:
             v = r.criteria[name]
             line.append(_td("pass" if v["passed"] else f"fail: {v['failing']}", "pass" if v["passed"] else "fail"))
@@ -280,8 +278,8 @@ def report_html(results: list[CaseResult], plots: dict[str, str], command: str, 
         f"<style>{CSS}</style></head><body>",
         "<h1>stackx bench</h1>",
         f"<p><code>{_e(command)}</code> took {wall_seconds:.1f} s on {_e(mach['platform'])}, {mach['cpus']} CPUs, "
-        f"Python {_e(mach['python'])}, compiled kernels {'on' if mach['compiled_kernels'] else 'off'}; "
-        f"{_e(', '.join(f'{k} {v}' for k, v in vers.items() if v))}.</p>",
+        f"compiled kernels {'on' if mach['compiled_kernels'] else 'off'}; "
+        f"{_e(', '.join(f'{k} {v}' for k, v in vers.items()))}.</p>",
         f"<p>Cases: {' '.join(f'<a href=#{_e(r.name)}>{_e(r.name)}</a>' for r in results)}.</p>",
         "<h2>Stability matrix</h2>",
         "<p class=note>Each cell: the knob values at which the solver passed all three criteria, or, when it "

@@ -7,14 +7,10 @@ from rich.markup import escape
 from rich.table import Table
 
 from stackx.bench.compare import case_records, matrix
-from stackx.bench.report import CaseResult
+from stackx.bench.report import CaseResult, number
 from stackx.criteria import NAMES
 
 _KNOB = {"iterations": "it", "substeps": "sub"}
-
-
-def _num(value: float | None, fmt: str = ".3g") -> str:
-    return "-" if value is None else format(value, fmt)
 
 
 def case_table(res: CaseResult) -> Table:
@@ -26,9 +22,9 @@ def case_table(res: CaseResult) -> Table:
     for r in case_records(res.records):
         m = r.measures
         knob = f"{_KNOB.get(r.knob, r.knob)} {r.value}" if r.knob else "-"
-        row = [r.solver, knob, _num(r.us_per_step, ".2f"), _num(r.error.get("rms"))]
-        row += ["-"] * 5 if r.blew_up else [_num(m.get(k)) for k in ("max_depth", "peak_depth", "top_rest_error",
-                                                                     "rms_motion", "launch")]
+        row = [r.solver, knob, number(r.us_per_step, ".2f"), number(r.error.get("rms"))]
+        row += ["-"] * 5 if r.blew_up else [number(m.get(k)) for k in ("max_depth", "peak_depth", "top_rest_error",
+                                                                       "rms_motion", "launch")]
         for name in NAMES:
             v = r.criteria[name]
             row.append("[green]pass[/]" if v["passed"] else "[red]fail[/]")

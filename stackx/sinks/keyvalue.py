@@ -46,14 +46,14 @@ class KeyValue(Sink):
         return {r.name: r.scene.final_size() for r in spec.runs}
 
     def check(self, spec, fail) -> None:  # type: ignore[no-untyped-def]
+        runs = self._runs(spec)
         for key, text in self.params.values.items():
             try:
-                evaluate(text, self._runs(spec))
+                evaluate(text, runs)
             except ExprError as exc:
                 raise fail(("values", key), str(exc)) from None
 
     def write(self, result, out) -> None:  # type: ignore[no-untyped-def]
-        measures = {r.name: r.measures for r in result.runs}
-        lines = [f"{key}={evaluate(text, self._runs(result.spec), measures)!r}"
-                 for key, text in self.params.values.items()]
+        runs, measures = self._runs(result.spec), {r.name: r.measures for r in result.runs}
+        lines = [f"{key}={evaluate(text, runs, measures)!r}" for key, text in self.params.values.items()]
         out.write_text(self.params.path, "\n".join(lines) + "\n")

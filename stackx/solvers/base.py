@@ -57,6 +57,14 @@ class Solver:
             out.append(default if p is None else float(p))
         return np.array(out, dtype=np.float64)
 
+    def counts(self, name: str) -> np.ndarray:
+        """An integer knob (iterations, substeps) per batch row."""
+        return np.array([getattr(p, name) for p in self.params], dtype=np.int64)
+
+    def flags(self, name: str) -> np.ndarray:
+        """A yes/no knob per batch row."""
+        return np.array([bool(getattr(p, name)) for p in self.params], dtype=np.bool_)
+
     def corrections(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Per batch row of a solver with a ``correction`` knob: whether it runs, its slop and its percent."""
         on = np.array([p.correction is not None for p in self.params], dtype=np.bool_)

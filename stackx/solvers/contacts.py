@@ -66,14 +66,6 @@ class ImpulseSolver(Solver):
         self.speculative = self.column("speculative")
         self.impulse: np.ndarray | None = None
 
-    def counts(self, name: str) -> np.ndarray:
-        """An integer knob (iterations, substeps) per batch row."""
-        return np.array([getattr(p, name) for p in self.params], dtype=np.int64)
-
-    def flags(self, name: str) -> np.ndarray:
-        """A yes/no knob per batch row."""
-        return np.array([bool(getattr(p, name)) for p in self.params], dtype=np.bool_)
-
     def memory(self, state: ColumnState) -> np.ndarray:
         """The impulses carried into the next step; zeros the first time."""
         if self.impulse is None or self.impulse.shape != state.y.shape:

@@ -46,23 +46,38 @@ class ExactParams(BaseModel):
 
 
 @kernel
-def solve_column(v: np.ndarray, inv: np.ndarray, mass: np.ndarray, target: np.ndarray,
-                 impulse: np.ndarray) -> None:
+def workspace(n: int) -> tuple[np.ndarray, np.ndarray]:
+    """Scratch for ``solve_column`` on a column of ``n`` boxes, ``(floats, indices)``: made once per column and
+    reused at every step, instead of nine arrays allocated per step (on a small column, about 30% of
+    the step's time). ``floats`` rows are ``u``, ``shift``, ``weight``, ``momentum``, ``pins``, ``pinned``,
+    ``value``; ``indices`` rows are ``first``, ``block``. A solve writes every element it reads before reading
+    it, so nothing is carried from one step to the next and the arrays need no zeroing.
+    """
+    return np.empty((7, n + 2)), np.empty((2, n + 2), dtype=np.int64)
+
+
+@kernel
+def solve_column(v: np.ndarray, inv: np.ndarray, mass: np.ndarray, target: np.ndarray, impulse: np.ndarray,
+                 floats: np.ndarray, indices: np.ndarray) -> None:
     """Solve the velocity LCP of one column in place: ``v`` in is after gravity, out is after the solve.
 
     ``mass[k] > 0`` marks the contacts that take part and ``target[k]`` is the slowest relative velocity each
     accepts (``stackx.solvers.contacts.prepare`` fills both); ``impulse`` receives each contact's impulse.
+    ``floats`` and ``indices`` are the scratch ``workspace(n)`` makes.
     """
     n = v.shape[0]
-    u = v.copy()
-    shift = np.zeros(n)  # sum of the targets of the contacts below each box, within its chain
+    u = floats[0]  # the velocities before the solve
+    for i in range(n):
+        u[i] = v[i]
+    shift = floats[1]  # sum of the targets of the contacts below each box, within its chain
     # blocks of the pool-adjacent-violators stack; element -1 is the floor
-    first = np.zeros(n + 2, dtype=np.int64)
-    weight = np.zeros(n + 1)  # total mass of the movable boxes in the block
-    momentum = np.zeros(n + 1)  # their total mass * shifted velocity
-    pins = np.zeros(n + 1)  # immovable members (the floor, boxes of inverse mass 0)
-    pinned = np.zeros(n + 1)  # sum of the pinned members' shifted velocities
-    value = np.zeros(n + 1)  # the block's shifted velocity
+    first = indices[0]  # the block's lowest box (-1: the floor)
+    weight = floats[2]  # total mass of the movable boxes in the block
+    momentum = floats[3]  # their total mass * shifted velocity
+    pins = floats[4]  # immovable members (the floor, boxes of inverse mass 0)
+    pinned = floats[5]  # sum of the pinned members' shifted velocities
+    value = floats[6]  # the block's shifted velocity
+    block = indices[1]  # the block each box ends in
     top = -1
     bottom = 0  # blocks below this index belong to a finished chain and never merge again
     running = 0.0
@@ -93,7 +108,6 @@ def solve_column(v: np.ndarray, inv: np.ndarray, mass: np.ndarray, target: np.nd
             top -= 1
             value[top] = pinned[top] / pins[top] if pins[top] > 0.0 else momentum[top] / weight[top]
     first[top + 1] = n
-    block = np.zeros(n, dtype=np.int64)
     for b in range(top + 1):
         for i in range(max(first[b], 0), first[b + 1]):
             block[i] = b
@@ -161,8 +175,9 @@ def exact_velocities(y: np.ndarray, v: np.ndarray, inv: np.ndarray, half: np.nda
     target = np.zeros(n)
     impulse = np.zeros(n)
     out = v.copy()
+    floats, indices = workspace(n)
     prepare(y, inv, half, dt, speculative, 0.0, 0.0, np.inf, impulse, mass, target)
-    solve_column(out, inv, mass, target, impulse)
+    solve_column(out, inv, mass, target, impulse, floats, indices)
     return out, impulse
 
 
@@ -173,18 +188,20 @@ def exact_advance(y: np.ndarray, v: np.ndarray, inv: np.ndarray, half: np.ndarra
                   launch: np.ndarray, steps: int) -> None:
     """``steps`` steps of every batch row, in place: gravity, exact velocity solve, positions, correction."""
     for b in prange(y.shape[0]):
+        yb, vb, ib, hb = y[b], v[b], inv[b], half[b]  # the row's views, made once, not at every stage call
         n = y.shape[1]
         mass = np.zeros(n)
         target = np.zeros(n)
         impulse = np.zeros(n)
+        floats, indices = workspace(n)
         for _ in range(steps):
-            gravity(v[b], g[b], dt[b])
-            prepare(y[b], inv[b], half[b], dt[b], speculative[b], 0.0, 0.0, np.inf, impulse, mass, target)
-            solve_column(v[b], inv[b], mass, target, impulse)
-            integrate_positions(y[b], v[b], dt[b])
+            gravity(vb, g[b], dt[b])
+            prepare(yb, ib, hb, dt[b], speculative[b], 0.0, 0.0, np.inf, impulse, mass, target)
+            solve_column(vb, ib, mass, target, impulse, floats, indices)
+            integrate_positions(yb, vb, dt[b])
             if corrects[b]:
-                correct_positions(y[b], inv[b], half[b], slop[b], percent[b])
-            observe(y[b], v[b], half[b], peak, reach, touched, launch, b)
+                correct_positions(yb, ib, hb, slop[b], percent[b])
+            observe(yb, vb, hb, peak, reach, touched, launch, b)
 
 
 @solvers.register("exact")

@@ -69,20 +69,21 @@ def jacobi_advance(y: np.ndarray, v: np.ndarray, inv: np.ndarray, half: np.ndarr
                    launch: np.ndarray, steps: int) -> None:
     """``steps`` steps of every batch row, in place; ``impulse`` carries over between calls."""
     for b in prange(y.shape[0]):
+        yb, vb, ib, hb, pb = y[b], v[b], inv[b], half[b], impulse[b]  # the row's views, made once
         n = y.shape[1]
         mass = np.zeros(n)
         target = np.zeros(n)
         change = np.zeros(n)
         for _ in range(steps):
-            gravity(v[b], g[b], dt[b])
-            prepare(y[b], inv[b], half[b], dt[b], speculative[b], 0.0, 0.0, np.inf, impulse[b], mass, target)
-            warm_start(v[b], inv[b], impulse[b], carry[b])
+            gravity(vb, g[b], dt[b])
+            prepare(yb, ib, hb, dt[b], speculative[b], 0.0, 0.0, np.inf, pb, mass, target)
+            warm_start(vb, ib, pb, carry[b])
             for _ in range(iterations[b]):
-                jacobi_iteration(v[b], inv[b], impulse[b], mass, target, relaxation[b], change)
-            integrate_positions(y[b], v[b], dt[b])
+                jacobi_iteration(vb, ib, pb, mass, target, relaxation[b], change)
+            integrate_positions(yb, vb, dt[b])
             if corrects[b]:
-                correct_positions(y[b], inv[b], half[b], slop[b], percent[b])
-            observe(y[b], v[b], half[b], peak, reach, touched, launch, b)
+                correct_positions(yb, ib, hb, slop[b], percent[b])
+            observe(yb, vb, hb, peak, reach, touched, launch, b)
 
 
 @solvers.register("jacobi")

@@ -96,7 +96,7 @@ class PGS(Solver):
 
     def __init__(self, params: list[PGSParams], gravity: np.ndarray, dt: np.ndarray) -> None:
         super().__init__(params, gravity, dt)
-        self.iterations = np.array([p.iterations for p in params], dtype=np.int64)
+        self.iterations = self.counts("iterations")
         self.corrects, self.slop, self.percent = self.corrections()
 
     def advance(self, state: ColumnState, steps: int) -> None:

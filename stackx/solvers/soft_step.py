@@ -104,6 +104,7 @@ def soft_step_advance(y: np.ndarray, v: np.ndarray, inv: np.ndarray, half: np.nd
                       steps: int) -> None:
     """``steps`` steps of every batch row, in place; ``impulse`` carries over between calls."""
     for b in prange(y.shape[0]):
+        yb, vb, ib, hb, pb = y[b], v[b], inv[b], half[b], impulse[b]  # the row's views, made once
         n = y.shape[1]
         mass = np.zeros(n)
         target = np.zeros(n)
@@ -113,15 +114,15 @@ def soft_step_advance(y: np.ndarray, v: np.ndarray, inv: np.ndarray, half: np.nd
         softness[0, 0], softness[0, 1], softness[0, 2] = soft(STATIC_HERTZ * contact_hertz, damping_ratio[b], h)
         softness[1, 0], softness[1, 1], softness[1, 2] = soft(contact_hertz, damping_ratio[b], h)
         for _ in range(steps):
-            prepare(y[b], inv[b], half[b], dt[b], speculative[b], 0.0, 0.0, np.inf, impulse[b], mass, target)
+            prepare(yb, ib, hb, dt[b], speculative[b], 0.0, 0.0, np.inf, pb, mass, target)
             for _ in range(substeps[b]):
-                gravity(v[b], g[b], h)
-                warm_start(v[b], inv[b], impulse[b], True)
-                soft_iteration(y[b], v[b], inv[b], half[b], impulse[b], mass, h, True, push_out[b], softness)
-                integrate_positions(y[b], v[b], h)
+                gravity(vb, g[b], h)
+                warm_start(vb, ib, pb, True)
+                soft_iteration(yb, vb, ib, hb, pb, mass, h, True, push_out[b], softness)
+                integrate_positions(yb, vb, h)
                 if relax[b]:
-                    soft_iteration(y[b], v[b], inv[b], half[b], impulse[b], mass, h, False, push_out[b], softness)
-            observe(y[b], v[b], half[b], peak, reach, touched, launch, b)
+                    soft_iteration(yb, vb, ib, hb, pb, mass, h, False, push_out[b], softness)
+            observe(yb, vb, hb, peak, reach, touched, launch, b)
 
 
 @solvers.register("soft-step")

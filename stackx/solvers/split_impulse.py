@@ -60,6 +60,7 @@ def split_impulse_advance(y: np.ndarray, v: np.ndarray, inv: np.ndarray, half: n
                           launch: np.ndarray, steps: int) -> None:
     """``steps`` steps of every batch row, in place; ``impulse`` carries over between calls."""
     for b in prange(y.shape[0]):
+        yb, vb, ib, hb, pb = y[b], v[b], inv[b], half[b], impulse[b]  # the row's views, made once
         n = y.shape[1]
         mass = np.zeros(n)
         target = np.zeros(n)
@@ -68,13 +69,13 @@ def split_impulse_advance(y: np.ndarray, v: np.ndarray, inv: np.ndarray, half: n
         pseudo_mass = np.zeros(n)
         pseudo_target = np.zeros(n)
         for _ in range(steps):
-            solve_velocities(y[b], v[b], inv[b], half[b], g[b], dt[b], speculative[b], 0.0, 0.0, np.inf, carry[b],
-                             iterations[b], impulse[b], mass, target)
-            pseudo_solve(y[b], inv[b], half[b], dt[b], beta[b], slop[b], position_iterations[b], pseudo,
+            solve_velocities(yb, vb, ib, hb, g[b], dt[b], speculative[b], 0.0, 0.0, np.inf, carry[b],
+                             iterations[b], pb, mass, target)
+            pseudo_solve(yb, ib, hb, dt[b], beta[b], slop[b], position_iterations[b], pseudo,
                          pseudo_impulse, pseudo_mass, pseudo_target)
-            integrate_positions(y[b], v[b], dt[b])
-            integrate_positions(y[b], pseudo, dt[b])
-            observe(y[b], v[b], half[b], peak, reach, touched, launch, b)
+            integrate_positions(yb, vb, dt[b])
+            integrate_positions(yb, pseudo, dt[b])
+            observe(yb, vb, hb, peak, reach, touched, launch, b)
 
 
 @solvers.register("split-impulse")

@@ -51,16 +51,17 @@ def warm_start_advance(y: np.ndarray, v: np.ndarray, inv: np.ndarray, half: np.n
                        steps: int) -> None:
     """``steps`` steps of every batch row, in place; ``impulse`` carries over between calls."""
     for b in prange(y.shape[0]):
+        yb, vb, ib, hb, pb = y[b], v[b], inv[b], half[b], impulse[b]  # the row's views, made once
         n = y.shape[1]
         mass = np.zeros(n)
         target = np.zeros(n)
         for _ in range(steps):
-            solve_velocities(y[b], v[b], inv[b], half[b], g[b], dt[b], speculative[b], 0.0, 0.0, np.inf, carry[b],
-                             iterations[b], impulse[b], mass, target)
-            integrate_positions(y[b], v[b], dt[b])
+            solve_velocities(yb, vb, ib, hb, g[b], dt[b], speculative[b], 0.0, 0.0, np.inf, carry[b],
+                             iterations[b], pb, mass, target)
+            integrate_positions(yb, vb, dt[b])
             if corrects[b]:
-                correct_positions(y[b], inv[b], half[b], slop[b], percent[b])
-            observe(y[b], v[b], half[b], peak, reach, touched, launch, b)
+                correct_positions(yb, ib, hb, slop[b], percent[b])
+            observe(yb, vb, hb, peak, reach, touched, launch, b)
 
 
 @solvers.register("warm-start")

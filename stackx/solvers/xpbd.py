@@ -75,17 +75,18 @@ def xpbd_advance(y: np.ndarray, v: np.ndarray, inv: np.ndarray, half: np.ndarray
                  reach: np.ndarray, touched: np.ndarray, launch: np.ndarray, steps: int) -> None:
     """``steps`` steps of every batch row, in place."""
     for b in prange(y.shape[0]):
+        yb, vb, ib, hb = y[b], v[b], inv[b], half[b]  # the row's views, made once, not at every stage call
         before = np.zeros(y.shape[1])
         h = dt[b] / substeps[b]
         stiffness = compliance[b] / (h * h)
         for _ in range(steps):
             for _ in range(substeps[b]):
-                before[:] = y[b]
-                gravity(v[b], g[b], h)
-                integrate_positions(y[b], v[b], h)
-                project(y[b], inv[b], half[b], stiffness)
-                derive_velocities(y[b], before, v[b], h)
-            observe(y[b], v[b], half[b], peak, reach, touched, launch, b)
+                before[:] = yb
+                gravity(vb, g[b], h)
+                integrate_positions(yb, vb, h)
+                project(yb, ib, hb, stiffness)
+                derive_velocities(yb, before, vb, h)
+            observe(yb, vb, hb, peak, reach, touched, launch, b)
 
 
 @solvers.register("xpbd")
@@ -96,7 +97,7 @@ class XPBD(Solver):
 
     def __init__(self, params: list[XPBDParams], gravity: np.ndarray, dt: np.ndarray) -> None:
         super().__init__(params, gravity, dt)
-        self.substeps = np.array([p.substeps for p in params], dtype=np.int64)
+        self.substeps = self.counts("substeps")
         self.compliance = self.column("compliance")
 
     def advance(self, state: ColumnState, steps: int) -> None:

@@ -10,6 +10,8 @@ import time
 import urllib.request
 from pathlib import Path
 
+import pytest
+
 from tests.conftest import CONFIGS, REPO, Cli
 
 
@@ -97,3 +99,12 @@ def test_serve_refuses_a_missing_folder(cli: Cli, tmp_path: Path) -> None:
     done = cli("serve", tmp_path / "nowhere")
     assert done.returncode == 2
     assert "no such folder" in done.stderr
+
+
+@pytest.mark.parametrize("command", ["plugins", "schema", "validate"])
+def test_a_missing_plugins_folder_is_refused(cli: Cli, tmp_path: Path, command: str) -> None:
+    """``--plugins DIR`` that is not a folder stops every command that takes it (it used to list built-ins)."""
+    args = [CONFIGS / "03-sink.yaml"] if command == "validate" else []
+    done = cli(command, *args, "--plugins", tmp_path / "nowhere")
+    assert done.returncode == 2, done.stdout
+    assert done.stderr.strip() == f"error: {tmp_path / 'nowhere'}: --plugins: no such folder"

@@ -122,3 +122,30 @@ outputs:
     assert done.stderr.startswith(f"error: {config}:{line}:{col - 1}: outputs[0].values.top: index 4 out of range")
     config.write_text(text.replace("y[4]", "y[3]"))
     assert cli("run", config, "--out", tmp_path / "out", "-q").returncode == 0
+
+
+LISTED = """scene: {name: column, boxes: [{y: 0.5}, {y: 1.5}]}
+solver: {name: pgs, iterations: 4}
+steps: 120
+"""
+
+
+@pytest.mark.parametrize("tail, at, key, words", [
+    ("sweep:\n  grid:\n    solver.iterations: [2, 3]\n    limits.max_speed: [5, 6]\n", "limits.max_speed",
+     "sweep.grid.limits.max_speed", "only scene, solver, gravity, dt, steps can be overridden per run"),
+    ("sweep:\n  grid:\n    solver..iterations: [5, 6]\n", "solver..iterations", "sweep.grid.solver..iterations",
+     "malformed key 'solver..iterations'"),
+    ("runs:\n  a: {steps: 60}\n  b: {outputs: []}\n", "outputs", "runs.b.outputs",
+     "only scene, solver, gravity, dt, steps can be overridden per run"),
+    ("sweep:\n  grid:\n    scene.boxes.5.y: [3.0]\n", "3.0", "sweep.grid.scene.boxes.5.y[0]",
+     "no such place in the config: scene.boxes[5]"),
+], ids=["sweep-key-outside-a-run", "malformed-sweep-key", "runs-key-outside-a-run", "sweep-into-missing-box"])
+def test_a_bad_override_points_at_its_key(cli: Cli, tmp_path: Path, tail: str, at: str, key: str, words: str) -> None:
+    """A grid key that cannot be overridden is refused at the key itself (once, not at a value of a run)."""
+    text = LISTED + tail
+    config = tmp_path / "override.yaml"
+    config.write_text(text)
+    done = cli("validate", config)
+    line, col = _position(text, at)
+    assert done.returncode == 2, done.stderr
+    assert done.stderr.strip().startswith(f"error: {config}:{line}:{col}: {key}: {words}"), done.stderr

@@ -38,6 +38,11 @@ def test_zero_inverse_mass_sum_gives_float_zeros() -> None:
         assert result == (0.0, 0.0)
 
 
+def test_a_nan_depth_gives_nan_moves() -> None:
+    """As the lab's ``max(depth - slop, 0)`` does in Python: a blown-up height is not turned into no move."""
+    assert all(math.isnan(move) for move in correct(math.nan, SLOP, PERCENT, 1.0, 1.0))
+
+
 def test_static_object_one_leaves_everything_to_object_two() -> None:
     down, up = correct(0.3, SLOP, PERCENT, 0.0, 1.0)
     assert down == 0.0

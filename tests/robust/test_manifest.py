@@ -11,7 +11,7 @@ import pytest
 from typer.testing import CliRunner
 
 from stackx.cli import app
-from tests.conftest import CONFIGS
+from tests.conftest import CONFIGS, REPO, Cli
 
 VOLATILE = "timing.json"
 
@@ -46,7 +46,8 @@ def test_manifest_lists_every_artifact_with_its_hash(two_runs: tuple[Path, Path]
         assert entry == {"sha256": hashlib.sha256(data).hexdigest(), "bytes": len(data)}, name
     assert VOLATILE in doc["volatile"]
     stack = doc["experiments"]["06-stack"]
-    assert stack["config"] == str((CONFIGS / "06-stack.yaml").resolve())
+    assert not Path(stack["config"]).is_absolute()  # as seen from the output folder: no checkout's place in it
+    assert (out / stack["config"]).resolve() == (CONFIGS / "06-stack.yaml").resolve()
     assert stack["config_sha256"] == hashlib.sha256((CONFIGS / "06-stack.yaml").read_bytes()).hexdigest()
     run = stack["resolved"]["runs"][0]
     assert (run["solver"]["name"], run["solver"]["iterations"], run["steps"], run["dt"]) == ("pgs", 15, 900, 1 / 60)
@@ -110,3 +111,24 @@ def test_verify_reports_a_config_edited_since_the_run(tmp_path: Path) -> None:
 def test_verify_without_a_manifest_is_a_usage_error(tmp_path: Path) -> None:
     code, _, err = _cli("verify", str(tmp_path))
     assert code == 2 and "no manifest.json here" in err
+
+
+def test_two_checkouts_give_the_same_manifest_and_verify_from_anywhere(cli: Cli, tmp_path: Path) -> None:
+    """Paths are recorded from the output folder: the same configs in two folders (at different depths) give
+    the same manifest, byte for byte, and verify finds the configs from any working folder, also after the
+    whole checkout moved."""
+    checkouts = [tmp_path / "one", tmp_path / "deeper" / "two"]
+    for root in checkouts:
+        (root / "configs").mkdir(parents=True)
+        for name in ("03-sink.yaml", "06-stack.yaml"):
+            shutil.copy(CONFIGS / name, root / "configs" / name)
+        shutil.copytree(REPO / "plugins", root / "plugins")  # the nearest plugins/ folder is recorded too
+        done = cli("run", "configs", "--out", "out", "-q", cwd=root)
+        assert done.returncode == 0, done.stderr
+    first, second = ((root / "out" / "manifest.json").read_bytes() for root in checkouts)
+    assert first == second
+    moved = tmp_path / "moved"
+    checkouts[0].rename(moved)
+    done = cli("verify", moved / "out", cwd=tmp_path)
+    assert done.returncode == 0, done.stdout + done.stderr
+    assert "every byte identical" in done.stdout

@@ -8,7 +8,8 @@ import itertools
 import numpy as np
 import pytest
 
-from stackx.solvers.exact import exact_velocities
+from stackx.solvers.contacts import prepare
+from stackx.solvers.exact import exact_velocities, solve_column, workspace
 from stackx.solvers.pgs import velocity_pass
 
 DT = 1 / 60
@@ -85,6 +86,27 @@ def test_exact_matches_brute_force(n: int) -> None:
             np.testing.assert_allclose(got_v, v + inv * (jac.T @ got_lam), rtol=0, atol=TOLERANCE * scale)
             assert (got_lam >= 0).all()
     assert solved >= 40
+
+
+@pytest.mark.parametrize("n", [1, 5, 12])
+def test_a_reused_workspace_carries_nothing_over(n: int) -> None:
+    """The solve's scratch is made once and reused at every step without zeroing: started full of garbage
+    (NaN, wrong block indices) and then holding what the last column's solve left, it gives bit for bit the
+    numbers of a fresh solve."""
+    rng = np.random.default_rng(100 + n)
+    floats, indices = workspace(n)
+    floats.fill(np.nan)
+    indices.fill(n + 1)  # a valid index, but the wrong one for every box
+    for trial in range(30):
+        speculative = 0.0 if trial % 2 else 0.02
+        y, v, inv, half = random_column(rng, n, immovable=trial % 3 == 0)
+        want_v, want_lam = exact_velocities(y, v, inv, half, DT, speculative)
+        mass, target, impulse = np.zeros(n), np.zeros(n), np.zeros(n)
+        prepare(y, inv, half, DT, speculative, 0.0, 0.0, np.inf, impulse, mass, target)
+        got = v.copy()
+        solve_column(got, inv, mass, target, impulse, floats, indices)
+        np.testing.assert_array_equal(got, want_v)
+        np.testing.assert_array_equal(impulse, want_lam)
 
 
 def test_inputs_are_left_alone() -> None:

@@ -45,7 +45,7 @@ def test_changing_a_called_kernel_does_not_load_stale_compiled_code(tmp_path: Pa
     assert _compiled_result(tmp_path, cache) == "7.0"
 
 
-def _imports_numba(config: Path, jit: str | None) -> bool:
+def _imports_numba(config: Path, jit: str | None, out: Path) -> bool:
     code = textwrap.dedent("""
         import sys
         from stackx.cli import app
@@ -58,15 +58,14 @@ def _imports_numba(config: Path, jit: str | None) -> bool:
     env = {k: v for k, v in os.environ.items() if k != "STACKX_JIT"}
     if jit is not None:
         env["STACKX_JIT"] = jit
-    out = Path(os.environ.get("TMPDIR", "/tmp"))
-    done = subprocess.run([sys.executable, "-c", code, str(config), str(out / "stackx-speed-test-out")],
+    done = subprocess.run([sys.executable, "-c", code, str(config), str(out)],
                           capture_output=True, text=True, check=True, env=env, cwd=REPO)
     return done.stdout.strip().splitlines()[-1] == "True"
 
 
-def test_a_small_run_does_not_wait_for_numba_by_default() -> None:
-    assert not _imports_numba(CONFIGS / "06-stack.yaml", None)
-    assert _imports_numba(CONFIGS / "06-stack.yaml", "1")
+def test_a_small_run_does_not_wait_for_numba_by_default(tmp_path: Path) -> None:
+    assert not _imports_numba(CONFIGS / "06-stack.yaml", None, tmp_path / "auto")
+    assert _imports_numba(CONFIGS / "06-stack.yaml", "1", tmp_path / "jit")
 
 
 @pytest.mark.parametrize("env, work, want", [

@@ -22,6 +22,7 @@ import yaml
 from stackx import kernel, registry
 from stackx.config import load
 from stackx.errors import StackxError
+from stackx.results import ExperimentResult
 from stackx.runner import run_experiment
 from stackx.session import run_all
 from stackx.state import ColumnState
@@ -189,3 +190,23 @@ def test_the_runner_steps_a_sweep_the_same_compiled_and_plain(tmp_path: Path,
     plain = run_experiment(load(str(path)))
     assert_same_runs([compiled], [plain])
     assert [r.measures for r in compiled.runs] == [r.measures for r in plain.runs]
+
+
+def test_each_run_of_a_batch_is_measured_as_if_alone(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The runner measures a batch at once (the final motion of every row together, each row with its own step
+    size): each run's measures and recorded states are bit for bit those of the run stepped alone."""
+    monkeypatch.setenv("STACKX_JIT", "0")
+    grid = {"dt": [1 / 60, 1 / 45], "solver.iterations": [2, 9], "solver.correction.percent": [0.2, 0.7]}
+    sweep = run_experiment(load(str(sweep_config(tmp_path, {"name": "pgs"}, grid))))
+    assert len({(r.spec.solver_cls, r.spec.steps, r.spec.scene.size()) for r in sweep.runs}) == 1  # one batch
+    for run in sweep.runs:
+        doc = yaml.safe_load((tmp_path / "sweep.yaml").read_text())
+        del doc["sweep"]
+        doc["dt"] = run.spec.dt
+        doc["solver"]["iterations"] = run.spec.solver_params.iterations
+        doc["solver"]["correction"] = {"percent": run.spec.solver_params.correction.percent}  # as the grid sets it
+        alone_path = tmp_path / f"{run.name}.yaml"
+        alone_path.write_text(yaml.safe_dump(doc, sort_keys=False))
+        alone = run_experiment(load(str(alone_path)))
+        assert alone.runs[0].measures == run.measures, run.name
+        assert_same_runs([alone], [ExperimentResult(sweep.spec, [run])])
