@@ -20,7 +20,8 @@ from stackx.kernel import kernel, prange
 from stackx.monitor import observe
 from stackx.registry import solvers
 from stackx.solvers.base import Solver
-from stackx.solvers.pgs import PGSParams, correct_positions, gravity, integrate_positions
+from stackx.solvers.pgs import PGSParams, gravity, integrate_positions
+from stackx.solvers.position import correct_column, position_workspace
 from stackx.state import ColumnState
 
 
@@ -47,19 +48,21 @@ def relaxed_pass(y: np.ndarray, v: np.ndarray, inv: np.ndarray, half: np.ndarray
 @kernel
 def sor_advance(y: np.ndarray, v: np.ndarray, inv: np.ndarray, half: np.ndarray, g: np.ndarray, dt: np.ndarray,
                 iterations: np.ndarray, omega: np.ndarray, corrects: np.ndarray, slop: np.ndarray,
-                percent: np.ndarray, peak: np.ndarray, reach: np.ndarray, touched: np.ndarray, launch: np.ndarray,
+                percent: np.ndarray, stage: np.ndarray, max_push: np.ndarray, last: np.ndarray,
+                peak: np.ndarray, reach: np.ndarray, touched: np.ndarray, launch: np.ndarray,
                 steps: int) -> None:
     """``steps`` steps of every batch row, in place: the lab's step with relaxed velocity passes."""
     for b in prange(y.shape[0]):
         yb, vb, ib, hb = y[b], v[b], inv[b], half[b]  # the row's views, made once
+        pf, pi = position_workspace(y.shape[1])
         for _ in range(steps):
             gravity(vb, g[b], dt[b])
             for _ in range(iterations[b]):
                 relaxed_pass(yb, vb, ib, hb, omega[b])
             integrate_positions(yb, vb, dt[b])
             if corrects[b]:
-                correct_positions(yb, ib, hb, slop[b], percent[b])
-            observe(yb, vb, hb, peak, reach, touched, launch, b)
+                correct_column(yb, ib, hb, slop[b], percent[b], stage[b], max_push[b] * dt[b], pf, pi)
+            observe(yb, hb, dt[b], last, peak, reach, touched, launch, b)
 
 
 @solvers.register("sor")
@@ -72,8 +75,9 @@ class SOR(Solver):
         super().__init__(params, gravity, dt)
         self.iterations = self.counts("iterations")
         self.omega = self.column("omega")
-        self.corrects, self.slop, self.percent = self.corrections()
+        self.corrects, self.slop, self.percent, self.stage, self.max_push = self.corrections()
 
     def advance(self, state: ColumnState, steps: int) -> None:
         sor_advance(state.y, state.v, state.inv_mass, state.half, self.gravity, self.dt, self.iterations,
-                    self.omega, self.corrects, self.slop, self.percent, *state.monitors(), steps)
+                    self.omega, self.corrects, self.slop, self.percent, self.stage, self.max_push,
+                    *state.monitors(), steps)

@@ -1,12 +1,16 @@
 """Pass criteria of the hard cases, judged from a finished run's measures.
 
 A solver passes a case when, at the case's end, it
-- **holds**: the largest contact depth in the final state is at most ``depth_factor`` x ``slop``, and no box
-  ever passed half-way into its neighbour or below the floor (the ``reach`` monitor stayed <= 1);
+- **holds**: in the final state every contact, the floor's included, overlaps by at most ``depth_factor`` x
+  ``slop`` and has at most that much gap (a column resting on air, as an engine's contact skin leaves it,
+  does not hold); the top box is within ``rest_factor`` x ``slop`` per contact of where it rests on a rigid
+  column (an average sinking that no single contact shows); and no box ever passed half-way into its
+  neighbour or below the floor (the ``reach`` monitor stayed <= 1);
 - is **settled**: the RMS of the boxes' actual motion over the final window (``rms_motion``) is below
   ``settle``;
-- **never launched**: no box that had touched something moved upward faster than ``launch`` (the ``launch``
-  monitor), the sign of a correction that became a force or of an over-eager solver.
+- **never launched**: no box that had touched something moved upward faster than ``launch``, measured from
+  positions after every step (the ``launch`` monitor), whatever moved it: an impulse, a bias or a position
+  correction that never touched a velocity.
 
 The limits are a config's ``bench.criteria`` section; the defaults are the hard cases' definitions.
 """
@@ -31,6 +35,9 @@ class Criteria(BaseModel):
                                     "another slop, so every solver is held to the same limit")
     depth_factor: float = Field(2.0, gt=0, allow_inf_nan=False,
                                 description="'holds' allows a final depth of depth_factor x slop")
+    rest_factor: float = Field(1.5, gt=0, allow_inf_nan=False,
+                               description="'holds' allows the top box to end up to rest_factor x slop per "
+                                           "contact (boxes, the floor's included) away from its rigid rest height")
     reach: float = Field(1.0, gt=0, allow_inf_nan=False,
                          description="'holds' allows depths up to this share of the thinner box's half-height "
                                      "at every step (1: half-way into the neighbour)")
@@ -41,7 +48,12 @@ class Criteria(BaseModel):
 
     @property
     def depth_limit(self) -> float:
+        """The largest final depth, and the largest final gap, that 'holds' allows (m)."""
         return self.depth_factor * self.slop
+
+    def rest_limit(self, contacts: int) -> float:
+        """The largest distance of the top box from its rigid rest height that 'holds' allows (m)."""
+        return self.rest_factor * self.slop * contacts
 
 
 @dataclass(frozen=True)
@@ -86,12 +98,16 @@ class Verdict:
 
 
 def judge(measures: Mapping[str, Any], criteria: Criteria) -> dict[str, Verdict]:
-    """The three verdicts of one run from its measures (``max_depth``, ``reach``, ``rms_motion``, ``launch``)."""
+    """The three verdicts of one run from its measures (``max_depth``, ``max_gap``, ``top_rest_error``,
+    ``boxes``, ``reach``, ``rms_motion``, ``launch``)."""
     def check(measure: str, limit: float, strict: bool = False) -> Check:
         return Check(measure, float(measures[measure]), limit, strict)
 
+    rest = Check("|top_rest_error|", abs(float(measures["top_rest_error"])),
+                 criteria.rest_limit(int(measures["boxes"])))
     return {
-        "holds": Verdict("holds", (check("max_depth", criteria.depth_limit), check("reach", criteria.reach))),
+        "holds": Verdict("holds", (check("max_depth", criteria.depth_limit), check("max_gap", criteria.depth_limit),
+                                   rest, check("reach", criteria.reach))),
         "settled": Verdict("settled", (check("rms_motion", criteria.settle, strict=True),)),
         "never_launched": Verdict("never_launched", (check("launch", criteria.launch),)),
     }

@@ -3,7 +3,9 @@
 Runs of one experiment with the same solver and the same number of boxes and steps form one batch and are
 stepped together (the solver gets one params object per row). The state is recorded before the steps
 that outputs asked for and over the final motion window; between those points the solver advances many
-steps per call.
+steps per call. A caller that must see every step (the bench measures each step against the exact solve)
+passes a ``StepObserver``: the batch then advances one step per call, and the observer sees the heights and
+velocities before each step and the state after it.
 """
 
 from __future__ import annotations
@@ -11,7 +13,7 @@ from __future__ import annotations
 import time
 from collections.abc import Callable
 from itertools import groupby
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 
@@ -26,11 +28,21 @@ from stackx.watch import Watch, add_finished, first_line
 CHUNK = 500  # most steps per solver call: bounds how often progress is reported and blow-ups are caught
 
 Progress = Callable[[int], None]
+OnStep = Callable[[int, np.ndarray, np.ndarray, ColumnState], None]
+"""``(k, y, v, after)``: step ``k`` of a batch went from heights ``y`` and velocities ``v`` (batch arrays, before
+the step) to the state ``after`` (before any scene event at ``k + 1``). Called after every step."""
 
 
-def record_steps(spec: ExperimentSpec, run: RunSpec) -> list[int]:
-    """Steps before which the state is kept: what outputs need, the scene's events, the motion window, the end."""
-    wanted = set(motion_steps(run.steps)) | {e.step for e in run.scene.events()}
+class StepObserver(Protocol):
+    """Watches every step of every batch: ``batch(runs)`` gives the callback for the batch of ``runs``."""
+
+    def batch(self, runs: list[RunSpec]) -> OnStep: ...
+
+
+def record_steps(spec: ExperimentSpec, run: RunSpec, extra: set[int] | None = None) -> list[int]:
+    """Steps before which the state is kept: what outputs need, the scene's events, the motion window, the end,
+    and the ``extra`` steps a caller asked for."""
+    wanted = set(motion_steps(run.steps)) | {e.step for e in run.scene.events()} | (extra or set())
     for output in spec.outputs:
         wanted |= output.frame_steps(spec)
     return sorted(k for k in wanted if 0 <= k <= run.steps)
@@ -45,8 +57,10 @@ def _work(runs: list[RunSpec]) -> int:
     return len(runs) * runs[0].scene.size() * runs[0].steps
 
 
-def run_experiment(spec: ExperimentSpec, progress: Progress | None = None) -> ExperimentResult:
-    """Step every run of ``spec`` and measure it."""
+def run_experiment(spec: ExperimentSpec, progress: Progress | None = None,
+                   observer: StepObserver | None = None, record: set[int] | None = None) -> ExperimentResult:
+    """Step every run of ``spec`` and measure it; ``observer`` sees every step of every batch, and the states
+    before the steps in ``record`` are kept beside those the outputs ask for."""
     result = ExperimentResult(spec)
     by_name: dict[str, RunResult] = {}
     ordered = sorted(spec.runs, key=_batch_key)
@@ -54,7 +68,7 @@ def run_experiment(spec: ExperimentSpec, progress: Progress | None = None) -> Ex
         for _, group in groupby(ordered, key=_batch_key):
             batch = list(group)
             with kernel.compiled(kernel.worth_compiling(_work(batch))):
-                for r in _run_batch(spec, batch, progress):
+                for r in _run_batch(spec, batch, progress, observer, record):
                     by_name[r.name] = r
     except BlowUp as exc:
         add_finished(exc.report, by_name, [r.name for r in spec.runs])
@@ -63,8 +77,10 @@ def run_experiment(spec: ExperimentSpec, progress: Progress | None = None) -> Ex
     return result
 
 
-def _run_batch(spec: ExperimentSpec, runs: list[RunSpec], progress: Progress | None) -> list[RunResult]:
+def _run_batch(spec: ExperimentSpec, runs: list[RunSpec], progress: Progress | None,
+               observer: StepObserver | None, record: set[int] | None) -> list[RunResult]:
     state, solver = _setup(spec, runs)
+    on_step = observer.batch(runs) if observer is not None else None
     watch = Watch(spec.file, [r.name for r in runs], solver, runs[0].steps, spec.limits.max_speed)
     watch.start(state)
     steps = runs[0].steps
@@ -72,13 +88,21 @@ def _run_batch(spec: ExperimentSpec, runs: list[RunSpec], progress: Progress | N
     frames: dict[int, ColumnState] = {}
     wall = 0.0
     done = 0
-    for stop in record_steps(spec, runs[0]):
+    for stop in record_steps(spec, runs[0], record):
         while done < stop:
             n = min(CHUNK, stop - done)
             watch.save(state)
-            t0 = time.perf_counter()
-            watch.advance(state, done, n)
-            wall += time.perf_counter() - t0
+            if on_step is None:
+                t0 = time.perf_counter()
+                watch.advance(state, done, n)
+                wall += time.perf_counter() - t0
+            else:
+                for k in range(done, done + n):
+                    y, v = state.y.copy(), state.v.copy()
+                    t0 = time.perf_counter()
+                    watch.advance(state, k, 1)
+                    wall += time.perf_counter() - t0
+                    on_step(k, y, v, state)
             watch.check(state, done, n)
             done += n
             if progress:

@@ -16,14 +16,16 @@ class ColumnState:
     """Heights, velocities, inverse masses and half-heights, each shaped ``(batch, boxes)``.
 
     The monitors (see ``stackx.monitor.observe``) are updated by solvers after every step, so a compiled run
-    does not return to Python per step: ``peak_depth`` and ``reach`` ``(batch,)``, ``touched``
-    ``(batch, boxes)`` and ``launch`` ``(batch,)``.
+    does not return to Python per step: ``last`` (the heights after the previous step, from which
+    ``launch`` measures motion) and ``touched`` ``(batch, boxes)``, ``peak_depth``, ``reach`` and ``launch``
+    ``(batch,)``.
     """
 
     y: np.ndarray
     v: np.ndarray
     inv_mass: np.ndarray
     half: np.ndarray
+    last: np.ndarray = field(default=None)  # type: ignore[assignment]
     peak_depth: np.ndarray = field(default=None)  # type: ignore[assignment]
     reach: np.ndarray = field(default=None)  # type: ignore[assignment]
     touched: np.ndarray = field(default=None)  # type: ignore[assignment]
@@ -35,6 +37,8 @@ class ColumnState:
         if all(getattr(self, k) is not None for k in self.MONITORS):
             return  # a copy: nothing to derive (this runs for every recorded state and solver call)
         d = self.depths()
+        if self.last is None:
+            self.last = self.y.copy()
         if self.peak_depth is None:
             self.peak_depth = np.maximum(d.max(axis=1), 0.0)
         if self.reach is None:
@@ -47,7 +51,7 @@ class ColumnState:
         if self.launch is None:
             self.launch = np.full(self.batch, -np.inf)
 
-    MONITORS = ("peak_depth", "reach", "touched", "launch")
+    MONITORS = ("last", "peak_depth", "reach", "touched", "launch")
     FIELDS = ("y", "v", "inv_mass", "half", *MONITORS)
 
     @property
@@ -72,13 +76,13 @@ class ColumnState:
         """Contact depths clipped at zero: a separated contact has no penetration."""
         return np.maximum(self.depths(), 0.0)
 
-    def monitors(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-        """The arguments ``observe`` takes after ``y, v, half``."""
-        return self.peak_depth, self.reach, self.touched, self.launch
+    def monitors(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """The arguments ``observe`` takes after ``y, half, dt``."""
+        return self.last, self.peak_depth, self.reach, self.touched, self.launch
 
     def remove_box(self, box: int) -> None:
         """Take box ``box`` out of every row in place; the per-run monitors keep their history."""
-        for name in ("y", "v", "inv_mass", "half", "touched"):
+        for name in ("y", "v", "inv_mass", "half", "last", "touched"):
             setattr(self, name, np.ascontiguousarray(np.delete(getattr(self, name), box, axis=1)))
 
     def copy(self) -> ColumnState:

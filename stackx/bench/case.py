@@ -28,7 +28,8 @@ class Claim(BaseModel):
 
 
 class Timing(BaseModel):
-    """How microseconds per step are measured: separate short runs, so a batched sweep still times each knob."""
+    """How microseconds per step are measured: separate short runs, so a batched sweep still times each knob,
+    both with every step in one call and with one step per call."""
 
     model_config = ConfigDict(extra="forbid")
     steps: int = Field(200, gt=0, le=1_000_000, description="steps per timed run, from the scene's start "
@@ -50,8 +51,6 @@ class BenchSection(BaseModel):
                                 description="dotted solver keys given to every solver whose parameters have "
                                             "them (e.g. correction.percent: 1.0); others run at their defaults")
     claim: Claim | None = Field(None, description="a lab claim measured against the lab's settings")
-    samples: int = Field(24, ge=2, le=10_000, description="steps sampled along each run for the error "
-                                                          "against the exact solver")
     timing: Timing = Field(default_factory=Timing, description="how microseconds per step are measured")
 
     @field_validator("knob")

@@ -1,6 +1,8 @@
 """Comparisons across solvers: the stability matrix, the speed-against-error front, equal-cost winners.
 
-Only the case's own settings count here (a claim's baseline runs are compared in ``claims``).
+Only the case's own settings count here (a claim's baseline runs are compared in ``claims``). Speed and
+error are compared only between runs that neither blew up nor were crushed, and never with the reference:
+``exact`` is what the error is measured against, so its error is zero by definition, not by merit.
 """
 
 from __future__ import annotations
@@ -9,6 +11,7 @@ from collections.abc import Iterable
 from dataclasses import dataclass
 from typing import Any
 
+from stackx.bench.accuracy import REFERENCE_SOLVER
 from stackx.bench.plan import CASE
 from stackx.bench.sweep import Record
 
@@ -29,6 +32,8 @@ def failing(rec: Record) -> str:
     for a run that blew up, where (the runner's message without the file and run it names)."""
     if rec.blew_up:
         return "blew up: " + rec.blew_up.split(" blew up ", 1)[-1]
+    if rec.crushed:
+        return f"crushed at step {rec.crushed_at} (boxes passed through each other; its figures are left out)"
     return "; ".join(f"{name}: {v['failing']}" for name, v in rec.criteria.items() if not v["passed"])
 
 
@@ -43,6 +48,7 @@ class Cell:
     shown: int | None       # the knob value the failure is shown at (the largest tried)
     failing: str
     failed: list[str]       # the measures that failed there (empty when passed or when the run blew up)
+    crushed_at: int | None = None  # where the run shown was crushed, if it was
 
     def text(self) -> str:
         if self.passed:
@@ -57,11 +63,13 @@ class Cell:
         ``FAIL`` and the measures that failed."""
         if self.passed:
             return "pass" if self.knob is None else f"pass {self.passing[0]} ({len(self.passing)}/{len(self.tried)})"
+        if self.crushed_at is not None:
+            return "CRUSHED"
         return "FAIL " + (" ".join(self.failed) or "blew up")
 
     def as_dict(self) -> dict[str, Any]:
         return {"passed": self.passed, "knob": self.knob, "passing": self.passing, "tried": self.tried,
-                "shown": self.shown, "failing": self.failing, "text": self.text()}
+                "shown": self.shown, "failing": self.failing, "crushed_at": self.crushed_at, "text": self.text()}
 
 
 def _values(values: list[int | None]) -> str:
@@ -75,7 +83,8 @@ def cell(records: list[Record]) -> Cell:
     last = recs[-1]
     failed = [c["measure"] for v in last.criteria.values() for c in v["checks"] if not c["passed"]]
     return Cell(bool(passing), last.knob, passing, [r.value for r in recs], last.value,
-                "" if passing else failing(last), [] if passing else failed)
+                "" if passing else failing(last), [] if passing else failed,
+                None if passing else last.crushed_at)
 
 
 def matrix(records: Iterable[Record]) -> dict[str, dict[str, Cell]]:
@@ -87,8 +96,10 @@ def matrix(records: Iterable[Record]) -> dict[str, dict[str, Cell]]:
 
 
 def measured(records: Iterable[Record]) -> list[Record]:
-    """Records with both a time per step and an error against the exact solver."""
-    return [r for r in case_records(records) if r.us_per_step is not None and r.error.get("rms") is not None]
+    """Records to compare on speed and error: timed, with an error against the exact solver, neither blown up
+    nor crushed, and not the reference itself."""
+    return [r for r in case_records(records) if r.us_per_step is not None and r.error.get("rms") is not None
+            and not r.broke and r.solver != REFERENCE_SOLVER]
 
 
 def pareto(records: Iterable[Record]) -> list[Record]:

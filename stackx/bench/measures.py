@@ -7,8 +7,10 @@ from stackx.results import RunResult
 
 
 def extra_measures(result: RunResult) -> dict[str, float]:
-    """Where the top box ends, and how much it still moves at the end.
+    """Where the top box ends, how much it still moves at the end, and the largest gap left.
 
+    - ``max_gap``: the largest gap in the final state between neighbouring boxes, or the bottom box and the
+      floor (m, 0 when every contact touches);
     - ``top_rest_error``: final height of the top box minus where it rests on a rigid column (the sum of
       the heights below it plus its half-height); negative when the column has sunk (m);
     - ``top_p2p``: peak-to-peak height of the top box over the final motion window (m), the size of an
@@ -19,7 +21,7 @@ def extra_measures(result: RunResult) -> dict[str, float]:
     half = final.half[0]
     rest = float(2.0 * half[:-1].sum() + half[-1])
     tops = [result.frames[k].y[0, -1] for k in motion_steps(steps)]
-    return {"top_rest_error": float(final.y[0, -1]) - rest, "top_p2p": float(max(tops) - min(tops)),
+    return {"max_gap": float(max(0.0, -final.depths()[0].min())), "top_rest_error": float(final.y[0, -1]) - rest, "top_p2p": float(max(tops) - min(tops)),
             "boxes": float(final.boxes)}
 
 

@@ -19,6 +19,7 @@ from pathlib import Path
 from typing import Any
 
 from stackx import __version__, manifest
+from stackx.bench.accuracy import REFERENCE_SOLVER
 from stackx.bench.claims import finding
 from stackx.bench.compare import TARGETS, Cell, case_records, equal_cost, failing, label, matrix, pareto
 from stackx.bench.measures import STILL
@@ -30,22 +31,39 @@ from stackx.metrics import MOTION_WINDOW
 from stackx.outdir import OutputDir
 
 DEFINITIONS = {
-    "holds": "the largest contact depth in the final state is at most criteria.depth_factor x criteria.slop, and no "
-             "box ever passed half-way into its neighbour or below the floor (reach <= criteria.reach, 1 by default)",
+    "holds": "in the final state every contact (the floor's included) overlaps by at most max_depth <= "
+             "criteria.depth_factor x criteria.slop and has at most that much gap (max_gap: a column resting on "
+             "air does not hold); the top box ends within |top_rest_error| <= criteria.rest_factor x criteria.slop "
+             "x contacts of its rigid rest height; and no box ever passed half-way into its neighbour or below "
+             "the floor (reach <= criteria.reach, 1 by default)",
     "settled": f"the RMS of the boxes' actual motion (y_now - y_prev)/dt over the last {MOTION_WINDOW} steps is "
                "below criteria.settle (stored velocities that move nothing do not count)",
-    "never_launched": "no box moved upward faster than criteria.launch after it first touched something",
-    "error": "along the solver's own run, at sampled steps: from the state before the step, the exact solver's "
+    "never_launched": "no box moved upward faster than criteria.launch after it first touched something, measured "
+                      "from positions after every step, (y_now - y_prev)/dt, the same way for every solver: a "
+                      "position correction that throws a box up counts although it never touches a velocity",
+    "crushed": "a box passed half-way into its neighbour at some step (reach above criteria.reach): the column's "
+               "order no longer says which box rests on which, so the run's depths, heights and errors are left "
+               "out of the tables, plots, Pareto fronts and equal-cost winners, and its cell says where it was "
+               "crushed",
+    "error": "along the solver's own run, at every step: from the state before the step, the exact solver's "
              "velocity stage gives the step's exact velocities (gravity, then no contact approaching and none "
-             "pulling, solved to machine precision); the error is the RMS over sampled steps and boxes of the "
-             "solver's stored velocity after the step minus the exact one (m/s). Comparing on the solver's own "
-             "path measures how well each step is solved; running both side by side would compare two piles "
-             "that part ways within a few steps. It includes what a solver does on purpose that a rigid contact "
-             "does not (a bias pushing apart, soft contacts, substeps, speculative contacts).",
+             "pulling, solved to machine precision); the error is the RMS over all steps and boxes of the "
+             "solver's stored velocity after the step minus the exact one (m/s), with the largest difference and "
+             "the step it came at (0-based). Comparing on the solver's own path measures how well each step is "
+             "solved; running both side by side would compare two piles that part ways within a few steps. It "
+             "includes what a solver does on purpose that a rigid contact does not (a bias pushing apart, soft "
+             "contacts, substeps, speculative contacts). A crushed run's error stops where it was crushed.",
+    "steps_to_recover": "the step from which every contact overlaps by at most criteria.depth_factor x "
+                        "criteria.slop to the end of the run; - when the run ends overlapping",
+    "steps_to_settle": "the step from which every contact is within that depth and that gap and the RMS motion "
+                       "of each step is below criteria.settle, to the end of the run; - when it never gets there",
     "us_per_step": "microseconds per step of one run alone, from the scene's start (up to bench.timing.steps "
-                   "steps, before any scene event), compiled, on one thread, the median of bench.timing.repeats "
-                   "runs after an untimed warm-up step; with what follows from them (equal cost, Pareto fronts, "
-                   "plots) the only numbers that change between two benches of the same configs",
+                   "steps, before any scene event), stepped in one call, compiled, on one thread, the median of "
+                   "bench.timing.repeats runs after an untimed warm-up step; with what follows from them (equal "
+                   "cost, Pareto fronts, plots) the only numbers that change between two benches of the same "
+                   "configs",
+    "us_per_call": "the same, one step per call, as a game loop or an engine bound to Python is stepped: the "
+                   "figure to set beside pymunk, Box2D or MuJoCo",
     "knob": "each solver's cost knob (its 'knob' attribute, else its iterations or substeps parameter) runs at "
             "the values of bench.knob (or bench.knobs for that solver); the config's own solver also runs at "
             "the config's own value; a solver without a knob runs once",
@@ -59,8 +77,10 @@ DEFINITIONS = {
              "has the setting and every knob value; a pair bears it out when the case's setting still moves at "
              "the end (RMS motion at or above criteria.settle) where the lab's has settled",
     "equal_cost": f"for each error level ({', '.join(f'{t:g}' for t in TARGETS)} m/s), the solver whose cheapest "
-                  "run at or below that error takes the fewest microseconds per step",
-    "pareto": "runs that no other run beats on both time per step and error",
+                  "run at or below that error takes the fewest microseconds per step; the reference (exact) and "
+                  "runs that blew up or were crushed are left out",
+    "pareto": "runs that no other run beats on both time per step and error (the reference and broken runs left "
+              "out)",
 }
 
 
@@ -198,21 +218,62 @@ def _matrix_html(results: list[CaseResult]) -> str:
     return _table(["case", *cells], rows, "matrix")
 
 
-MEASURES = ("max_depth", "peak_depth", "reach", "top_rest_error", "rms_motion", "top_p2p", "launch")
+def _timeline_html(results: list[CaseResult]) -> str:
+    """Cases down, with their boxes, solvers across: steps to recover / steps to settle at each solver's largest
+    knob value, so cases that differ only in size (recovery-10, -100, -1000) read as a curve against n."""
+    solvers = list(dict.fromkeys(r.solver for res in results for r in case_records(res.records)))
+    rows = []
+    for res in results:
+        line = [_td(res.name, "l"), _td(res.case.run.scene.size())]
+        for solver in solvers:
+            recs = sorted((r for r in case_records(res.records) if r.solver == solver), key=lambda r: r.value or 0)
+            if not recs:
+                line.append(_td("not run"))
+                continue
+            last = recs[-1]
+            if last.broke:
+                line.append(_td("blew up" if last.blew_up else f"crushed at {last.crushed_at}", "fail"))
+                continue
+            f = shown(last)
+            at = f" ({last.knob} {last.value})" if last.knob else ""
+            ok = f["steps_to_settle"] != "-"
+            line.append(_td(f"{f['steps_to_recover']} / {f['steps_to_settle']}{at}", "pass" if ok else "fail"))
+        rows.append(line)
+    return _table(["case", "boxes", *solvers], rows, "matrix")
+
+
+MEASURES = ("max_depth", "max_gap", "peak_depth", "top_rest_error", "rms_motion", "top_p2p", "launch",
+            "steps_to_recover", "steps_to_settle")
+
+
+def shown(rec: Record) -> dict[str, str]:
+    """A record's figures as a table shows them: '-' where there is none, and none of a run that broke (a
+    crushed run keeps only its reach, which says by how much)."""
+    if rec.broke:
+        figures = {k: "-" for k in ("error", "error_max", "worst_step", *MEASURES)}
+        figures["reach"] = "-" if rec.blew_up else number(rec.measures.get("reach"))
+        return figures
+    m, e = rec.measures, rec.error
+    figures = {"error": number(e.get("rms")), "error_max": number(e.get("max")),
+               "worst_step": number(e.get("worst_step"), "d"), "reach": number(m.get("reach"))}
+    for k in MEASURES:
+        figures[k] = number(m.get(k), "g" if k.startswith("steps_") else ".3g")
+    return figures
 
 
 def _records_html(res: CaseResult) -> str:
-    head = ["solver", "knob", "µs/step", "error rms", "error max", "final depth", "peak depth", "reach",
-            "top rest err", "rms motion", "top p2p", "launch", *NAMES]
+    head = ["solver", "knob", "µs/step", "µs/call", "error rms", "error max", "worst step", "final depth",
+            "final gap", "peak depth", "reach", "top rest err", "rms motion", "top p2p", "launch", "recovered at",
+            "settled at", *NAMES]
     rows = []
     for r in case_records(res.records):
-        m = r.measures
+        f = shown(r)
         line = [_td(r.solver, "l"), _td(f"{r.knob} {r.value}" if r.knob else "-", "l"),
-                _td(number(r.us_per_step, ".2f")), _td(number(r.error.get("rms"))), _td(number(r.error.get("max")))]
-        if r.blew_up:
-            line += [_td("-")] * len(MEASURES)
-        else:
-            line += [_td(number(m.get(k))) for k in MEASURES]
+                _td(number(r.us_per_step, ".2f")), _td(number(r.us_per_call, ".2f")),
+                _td(f["error"] if r.solver != REFERENCE_SOLVER else "reference"), _td(f["error_max"]),
+                _td(f["worst_step"])]
+        line += [_td(f[k]) for k in ("max_depth", "max_gap", "peak_depth", "reach", "top_rest_error", "rms_motion",
+                                     "top_p2p", "launch", "steps_to_recover", "steps_to_settle")]
         for name in NAMES:
             v = r.criteria[name]
             line.append(_td("pass" if v["passed"] else f"fail: {v['failing']}", "pass" if v["passed"] else "fail"))
@@ -238,12 +299,19 @@ def _equal_cost_html(res: CaseResult) -> str:
 def _case_html(res: CaseResult, plot: str | None) -> str:
     case, run = res.case, res.case.run
     crit = case.section.criteria
+    contacts = run.scene.size() - len(run.scene.events())
     parts = [f'<h2 id="{_e(res.name)}">{_e(res.name)}</h2>',
              f"<p>{_e(case.spec.description)}</p>",
              f"<p class=note><code>{_e(case.spec.file)}</code>: {run.scene.size()} boxes, dt = {run.dt:.6g} s, "
-             f"{run.steps} steps{''.join(f', {_e(repr(e))}' for e in run.scene.events())}. Holds: final depth ≤ "
-             f"{crit.depth_limit:g} m and reach ≤ {crit.reach:g}; settled: RMS motion &lt; {crit.settle:g} m/s; "
-             f"never launched: ≤ {crit.launch:g} m/s upward.</p>"]
+             f"{run.steps} steps{''.join(f', {_e(repr(e))}' for e in run.scene.events())}. Holds: final depth "
+             f"and final gap ≤ {crit.depth_limit:g} m, top box within {crit.rest_limit(contacts):.3g} m of its rigid "
+             f"rest height ({crit.rest_factor:g} x {crit.slop:g} m x {contacts} contacts), reach ≤ {crit.reach:g}; "
+             f"settled: RMS motion &lt; {crit.settle:g} m/s; never launched: ≤ {crit.launch:g} m/s upward, from "
+             "positions.</p>"]
+    if run.solver_cls.plugin_name in {p.solver for p in case.plans}:
+        own = run.solver_params.model_dump(mode="json")
+        parts.append(f"<p class=note>{_e(run.solver_cls.plugin_name)} runs with the config's own settings "
+                     f"<code>{_e(json.dumps(own, sort_keys=True))}</code>; the others at their defaults.</p>")
     knobs = "; ".join(f"{p.solver}: {p.knob} {', '.join(map(str, p.values))}" if p.knob else f"{p.solver}: no knob"
                       for p in case.plans)
     parts.append(f"<p class=note>Knob values: {_e(knobs)}.</p>")
@@ -289,6 +357,12 @@ def report_html(results: list[CaseResult], plots: dict[str, str], command: str, 
     if blown:
         head.append("<p class=note>Runs that blew up: " + "; ".join(
             f"{_e(label(r.solver, r.knob, r.value))} on {_e(r.case)} {_e(failing(r))}" for r in blown) + ".</p>")
+    head += ["<h2>Steps to recover / steps to settle</h2>",
+             "<p class=note>At each solver's largest knob value: the step from which no contact overlaps beyond the "
+             "depth limit, and the step from which the column also has no gap beyond it and moves below the "
+             "settled limit, to the end of the run ('-': not by the end). Cases that differ only in their number "
+             "of boxes show how recovery grows with the height of the column.</p>",
+             _timeline_html(results)]
     if claims:
         head += ["<h2>The lab's claims, measured</h2>", "<ul>" + "".join(claims) + "</ul>"]
     head += ["<h2>Definitions</h2>", f"<ul>{defs}</ul>"]

@@ -1,9 +1,13 @@
 """Run a bench case: every plan's knob values as one batched run per solver, then timings and errors.
 
-The measures come from the batched run (the runner puts the same solver and shape in one batch). Time per
-step cannot be split between the rows of a batch, so it is measured apart: short runs of one row from the
-scene's start, repeated, the median kept. A batch that blows up is run again row by row, so that one
-unstable knob value is a failing record and not a lost solver.
+The measures come from the batched run (the runner puts the same solver and shape in one batch), watched at
+every step (``stackx.bench.accuracy``). Time per step cannot be split between the rows of a batch, so it is
+measured apart: short runs of one row from the scene's start, repeated, the median kept. A batch that blows
+up is run again row by row, so that one unstable knob value is a failing record and not a lost solver.
+
+A run whose boxes passed through each other is **crushed**: its criteria are judged (it fails "holds" by
+reach), but its depths, heights and errors describe no column, so tables, plots, fronts and winners leave
+them out.
 """
 
 from __future__ import annotations
@@ -13,14 +17,13 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
-from stackx.bench.accuracy import Reference, sample_steps, velocity_error
+from stackx.bench.accuracy import Reference, RowLog, StepLog
 from stackx.bench.measures import extra_measures, top_motion
 from stackx.bench.plan import CASE, Case, SolverPlan
 from stackx.bench.timing import one_thread, time_run
-from stackx.config import ExperimentSpec, RunSpec
+from stackx.config import RunSpec
 from stackx.criteria import NAMES, judge, passed
 from stackx.errors import RunError
-from stackx.outputs import Output
 from stackx.results import RunResult
 from stackx.runner import run_experiment
 
@@ -44,42 +47,40 @@ class Record:
     criteria: dict[str, Any] = field(default_factory=dict)
     passed: bool = False
     blew_up: str | None = None
+    crushed_at: int | None = None
     us_per_step: float | None = None
+    us_per_call: float | None = None
     timing: dict[str, Any] = field(default_factory=dict)
 
+    @property
+    def crushed(self) -> bool:
+        """Boxes passed through each other: the run's figures describe no column."""
+        return self.crushed_at is not None
+
+    @property
+    def broke(self) -> bool:
+        """Blew up or was crushed: no figure of it is worth comparing."""
+        return self.blew_up is not None or self.crushed
+
     def as_dict(self) -> dict[str, Any]:
-        return dataclasses.asdict(self)
-
-
-class _Probe(Output):
-    """Asks the runner to keep the states the error against the exact solver is measured on."""
-
-    needs_runs = True
-
-    def __init__(self, steps: set[int]) -> None:
-        super().__init__(None)  # type: ignore[arg-type]
-        self.steps = steps
-
-    def files(self) -> list[str]:
-        return []
-
-    def frame_steps(self, spec: ExperimentSpec) -> set[int]:
-        return self.steps
+        return {**dataclasses.asdict(self), "crushed": self.crushed}
 
 
 def _run_name(plan: SolverPlan, variant: str, value: int) -> str:
     return f"{plan.solver}/{variant}/{value}"
 
 
-def _measure(case: Case, plan: SolverPlan, variant: str, value: int, result: RunResult,
-             reference: Reference | None, samples: list[int]) -> Record:
+def _measure(case: Case, plan: SolverPlan, variant: str, value: int, result: RunResult, log: RowLog,
+             reference: Reference | None) -> Record:
     rec = _record(case, plan, variant, value)
     m = result.measures
     rec.measures = {k: float(m[k]) for k in RUN_MEASURES}  # type: ignore[arg-type]
     rec.measures.update(extra_measures(result))
+    rec.measures.update(log.timeline())  # type: ignore[arg-type]
     if case.section.claim is not None:
         rec.measures.update(top_motion(result))
-    rec.error = velocity_error(result, samples, reference) if reference is not None else {}
+    rec.crushed_at = log.crushed_at
+    rec.error = log.error() if reference is not None else {}
     verdicts = judge(rec.measures, case.section.criteria)
     rec.criteria = {name: v.as_dict() for name, v in verdicts.items()}
     rec.passed = passed(verdicts)
@@ -108,41 +109,43 @@ def _runs(case: Case, plan: SolverPlan) -> list[tuple[str, int, RunSpec]]:
 def run_plan(case: Case, plan: SolverPlan, reference: Reference | None,
              progress: Progress | None = None) -> list[Record]:
     """Every run of one solver on a case, measured; a blow-up is retried alone to find which rows blew up."""
-    samples = sample_steps(case.run, case.section.samples)
-    wanted = {s for k in samples for s in (k, k + 1)}
-    if case.section.claim is not None:  # a claim about bouncing is judged on every step (see top_motion)
-        wanted = set(range(case.run.steps + 1))
-    probe = _Probe(wanted)
+    # a claim about bouncing is judged on every step's state (see top_motion)
+    record = set(range(case.run.steps + 1)) if case.section.claim is not None else None
     runs = _runs(case, plan)
 
-    def experiment(specs: list[RunSpec]) -> ExperimentSpec:
-        return dataclasses.replace(case.spec, runs=specs, outputs=[probe])
+    def run(specs: list[RunSpec], log: StepLog, report: Progress | None) -> dict[str, RunResult]:
+        experiment = dataclasses.replace(case.spec, runs=specs, outputs=[])
+        return {r.name: r for r in run_experiment(experiment, report, log, record).runs}
 
+    log = StepLog(case.section.criteria, reference)
     try:
-        results = {r.name: r for r in run_experiment(experiment([r for _, _, r in runs]), progress).runs}
+        results = run([r for _, _, r in runs], log, progress)
     except RunError:
         results = {}
     out = []
-    for variant, value, run in runs:
-        result = results.get(run.name)
+    for variant, value, spec in runs:
+        result = results.get(spec.name)
         if result is None:
+            log.rows.pop(spec.name, None)
             try:
-                result = run_experiment(experiment([run]), None).runs[0]
+                result = run([spec], log, None)[spec.name]
             except RunError as exc:
                 out.append(_blown(case, plan, variant, value, str(exc)))
                 continue
-        out.append(_measure(case, plan, variant, value, result, reference, samples))
+        out.append(_measure(case, plan, variant, value, result, log.rows[spec.name], reference))
     return out
 
 
 def time_plan(case: Case, plan: SolverPlan, records: list[Record]) -> None:
-    """Fill ``us_per_step`` of a plan's records (a baseline row costs what its case row costs)."""
+    """Fill ``us_per_step`` and ``us_per_call`` of a plan's records (a baseline row costs what its case row
+    costs)."""
     by_value = {value: run for variant, value, run in _runs(case, plan) if variant == CASE}
     for value, run in by_value.items():
         timing = time_run(run, case.section.timing)
         for rec in records:
             if (rec.value if rec.knob else 0) == value:
                 rec.us_per_step = timing["us_per_step"]
+                rec.us_per_call = timing["us_per_call"]
                 rec.timing = timing
 
 

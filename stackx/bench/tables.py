@@ -7,7 +7,7 @@ from rich.markup import escape
 from rich.table import Table
 
 from stackx.bench.compare import case_records, matrix
-from stackx.bench.report import CaseResult, number
+from stackx.bench.report import CaseResult, number, shown
 from stackx.criteria import NAMES
 
 _KNOB = {"iterations": "it", "substeps": "sub"}
@@ -17,14 +17,14 @@ def case_table(res: CaseResult) -> Table:
     """Every run of one case at the case's own settings, by solver and knob value."""
     run = res.case.run
     table = Table(title=f"{res.name}: {run.scene.size()} boxes, {run.steps} steps", title_justify="left")
-    for col in ("solver", "knob", "µs/step", "error", "depth", "peak", "top err", "motion", "launch", *NAMES):
+    for col in ("solver", "knob", "µs/step", "µs/call", "error", "depth", "gap", "top err", "motion", "launch",
+                *NAMES):
         table.add_column(col, justify="left" if col in ("solver", "knob") else "right", overflow="fold")
     for r in case_records(res.records):
-        m = r.measures
+        f = shown(r)
         knob = f"{_KNOB.get(r.knob, r.knob)} {r.value}" if r.knob else "-"
-        row = [r.solver, knob, number(r.us_per_step, ".2f"), number(r.error.get("rms"))]
-        row += ["-"] * 5 if r.blew_up else [number(m.get(k)) for k in ("max_depth", "peak_depth", "top_rest_error",
-                                                                       "rms_motion", "launch")]
+        row = [r.solver, knob, number(r.us_per_step, ".2f"), number(r.us_per_call, ".2f"), f["error"]]
+        row += [f[k] for k in ("max_depth", "max_gap", "top_rest_error", "rms_motion", "launch")]
         for name in NAMES:
             v = r.criteria[name]
             row.append("[green]pass[/]" if v["passed"] else "[red]fail[/]")

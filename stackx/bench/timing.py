@@ -3,6 +3,11 @@
 The rows of a batch share one call, so a row's own time cannot be read from it; each knob value is timed
 in short runs of its own, from the scene's start, and the median of a few repeats is kept (a 2-core
 machine shared with other work is noisy). These are the only numbers of a bench that change from run to run.
+
+Two times are kept. ``us_per_step`` advances the run's steps in one call, as ``stackx run`` does: the cost
+of the stepping itself. ``us_per_call`` advances one step per call, as a game loop or an engine bound to
+Python (pymunk, Box2D, MuJoCo are stepped so) does: the same work plus the cost of entering the solver
+every step, which on a small column is most of it. Set a solver beside an engine with the second.
 """
 
 from __future__ import annotations
@@ -23,7 +28,7 @@ from stackx.config import RunSpec
 @contextmanager
 def one_thread() -> Iterator[None]:
     """Run compiled kernels on one thread. A timed run is a single row and cannot use more; the batched runs
-    stop every few steps (final motion window, error samples), and on a busy 2-core machine waking the idle
+    stop at every step (the error against the exact solve is measured on each), and on a busy 2-core machine waking the idle
     pool thread at each such call costs about half a millisecond, more than the steps themselves."""
     if not kernel.enabled():
         yield
@@ -39,9 +44,10 @@ def one_thread() -> Iterator[None]:
 
 
 def time_run(run: RunSpec, timing: Timing) -> dict[str, Any]:
-    """Microseconds per step of ``run`` alone: the median of ``timing.repeats`` runs of up to ``timing.steps``
-    steps from the scene's start (stopping before the first scene event), after one untimed warm-up step,
-    compiled (unless ``STACKX_JIT=0``)."""
+    """Microseconds per step of ``run`` alone, stepped in one call (``us_per_step``) and one step per call
+    (``us_per_call``): each the median of ``timing.repeats`` runs of up to ``timing.steps`` steps from the
+    scene's start (stopping before the first scene event), after one untimed warm-up step, compiled (unless
+    ``STACKX_JIT=0``)."""
     events = [e.step for e in run.scene.events()]
     steps = min([timing.steps, run.steps, *events])
 
@@ -53,12 +59,19 @@ def time_run(run: RunSpec, timing: Timing) -> dict[str, Any]:
         with kernel.compiled(kernel.enabled()):
             solver, state = fresh()
             solver.advance(state, 1)  # loads the compiled kernels; not timed
-            times = []
+            times, calls = [], []
             for _ in range(timing.repeats):
                 solver, state = fresh()
                 t0 = time.perf_counter()
                 solver.advance(state, steps)
                 times.append(1e6 * (time.perf_counter() - t0) / steps)
+                solver, state = fresh()
+                t0 = time.perf_counter()
+                for _ in range(steps):
+                    solver.advance(state, 1)
+                calls.append(1e6 * (time.perf_counter() - t0) / steps)
     except Exception as exc:  # a solver that fails on its own is reported by the measured run, not here
-        return {"us_per_step": None, "steps": steps, "repeats": [], "failed": f"{type(exc).__name__}: {exc}"}
-    return {"us_per_step": statistics.median(times), "steps": steps, "repeats": times}
+        return {"us_per_step": None, "us_per_call": None, "steps": steps, "repeats": [], "call_repeats": [],
+                "failed": f"{type(exc).__name__}: {exc}"}
+    return {"us_per_step": statistics.median(times), "us_per_call": statistics.median(calls), "steps": steps,
+            "repeats": times, "call_repeats": calls}

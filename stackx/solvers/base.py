@@ -7,7 +7,7 @@ state forward by a number of steps in place and must call ``stackx.monitor.obser
 
 from __future__ import annotations
 
-from typing import Annotated, Any, ClassVar
+from typing import Annotated, Any, ClassVar, Literal
 
 import numpy as np
 from pydantic import BaseModel, BeforeValidator, ConfigDict, Field
@@ -16,7 +16,8 @@ from stackx.state import ColumnState
 
 
 class Correction(BaseModel):
-    """Position correction after the velocity solve, the lab's ``correct()``."""
+    """Position correction after the velocity solve: the lab's ``correct()``, contact by contact or for the
+    whole column at once (``stackx.solvers.position`` says what each stage trades)."""
 
     model_config = ConfigDict(extra="forbid")
     slop: float = Field(0.01, ge=0, allow_inf_nan=False,
@@ -25,6 +26,15 @@ class Correction(BaseModel):
                            description="share of the overlap beyond slop undone per step: small values settle "
                                        "slowly; the lab warns that 1.0 throws boxes out (configs/hard/percent-1 "
                                        "measures it)")
+    stage: Literal["sequential", "global"] = Field(
+        "sequential", description="'sequential': the lab's, contact by contact bottom-up (a column overlapping "
+                                  "everywhere recovers in steps growing with the square of its height); "
+                                  "'global': every contact at once, an O(n) projection (a tall column recovers "
+                                  "in one step, so use it with max_push)")
+    max_push: float | None = Field(None, gt=0, allow_inf_nan=False,
+                                   description="fastest the stage may move a box (m/s), by scaling its whole move "
+                                               "down; null: no limit (the lab). Below 1 m/s it never launches a "
+                                               "box; smaller values recover more slowly")
 
 
 def _off(value: Any) -> Any:
@@ -65,10 +75,16 @@ class Solver:
         """A yes/no knob per batch row."""
         return np.array([bool(getattr(p, name)) for p in self.params], dtype=np.bool_)
 
-    def corrections(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Per batch row of a solver with a ``correction`` knob: whether it runs, its slop and its percent."""
+    def corrections(self) -> tuple[np.ndarray, ...]:
+        """Per batch row of a solver with a ``correction`` knob, the arguments of its position stage: whether
+        it runs, slop, percent, stage (``stackx.solvers.position.STAGES``) and max_push (m/s, inf for none)."""
+        from stackx.solvers.position import STAGES
+
         on = np.array([p.correction is not None for p in self.params], dtype=np.bool_)
-        return on, self.column("correction.slop"), self.column("correction.percent")
+        stage = np.array([STAGES[p.correction.stage] if p.correction is not None else 0 for p in self.params],
+                         dtype=np.int64)
+        return (on, self.column("correction.slop"), self.column("correction.percent"), stage,
+                self.column("correction.max_push", np.inf))
 
     def advance(self, state: ColumnState, steps: int) -> None:
         raise NotImplementedError

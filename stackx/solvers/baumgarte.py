@@ -43,7 +43,7 @@ class BaumgarteParams(ImpulseParams):
 def baumgarte_advance(y: np.ndarray, v: np.ndarray, inv: np.ndarray, half: np.ndarray, g: np.ndarray,
                       dt: np.ndarray, iterations: np.ndarray, carry: np.ndarray, speculative: np.ndarray,
                       beta: np.ndarray, slop: np.ndarray, max_bias: np.ndarray, impulse: np.ndarray,
-                      peak: np.ndarray, reach: np.ndarray, touched: np.ndarray, launch: np.ndarray,
+                      last: np.ndarray, peak: np.ndarray, reach: np.ndarray, touched: np.ndarray, launch: np.ndarray,
                       steps: int) -> None:
     """``steps`` steps of every batch row, in place; ``impulse`` carries over between calls."""
     for b in prange(y.shape[0]):
@@ -55,7 +55,7 @@ def baumgarte_advance(y: np.ndarray, v: np.ndarray, inv: np.ndarray, half: np.nd
             solve_velocities(yb, vb, ib, hb, g[b], dt[b], speculative[b], beta[b], slop[b], max_bias[b],
                              carry[b], iterations[b], pb, mass, target)
             integrate_positions(yb, vb, dt[b])
-            observe(yb, vb, hb, peak, reach, touched, launch, b)
+            observe(yb, hb, dt[b], last, peak, reach, touched, launch, b)
 
 
 @solvers.register("baumgarte")

@@ -30,8 +30,10 @@ from stackx.kernel import kernel, prange
 from stackx.monitor import observe
 from stackx.registry import solvers
 from stackx.solvers.base import Correction, LabCorrection, Solver
-from stackx.solvers.contacts import prepare, speculative_field
-from stackx.solvers.pgs import correct_positions, gravity, integrate_positions
+from stackx.solvers.contacts import depth, inverse_mass_sum, prepare, relative_velocity, speculative_field
+from stackx.solvers.isotonic import solve_column, workspace
+from stackx.solvers.position import correct_column, position_workspace
+from stackx.solvers.pgs import gravity, integrate_positions
 from stackx.state import ColumnState
 
 
@@ -43,122 +45,11 @@ class ExactParams(BaseModel):
                     "the same as the lab solver's, so the two differ only in how well the velocities are solved")
     speculative: float = speculative_field(
         0.02, "; at 0 the solve is exactly the limit of the lab solver's iterations")
-
-
-@kernel
-def workspace(n: int) -> tuple[np.ndarray, np.ndarray]:
-    """Scratch for ``solve_column`` on a column of ``n`` boxes, ``(floats, indices)``: made once per column and
-    reused at every step, instead of nine arrays allocated per step (on a small column, about 30% of
-    the step's time). ``floats`` rows are ``u``, ``shift``, ``weight``, ``momentum``, ``pins``, ``pinned``,
-    ``value``; ``indices`` rows are ``first``, ``block``. A solve writes every element it reads before reading
-    it, so nothing is carried from one step to the next and the arrays need no zeroing.
-    """
-    return np.empty((7, n + 2)), np.empty((2, n + 2), dtype=np.int64)
-
-
-@kernel
-def solve_column(v: np.ndarray, inv: np.ndarray, mass: np.ndarray, target: np.ndarray, impulse: np.ndarray,
-                 floats: np.ndarray, indices: np.ndarray) -> None:
-    """Solve the velocity LCP of one column in place: ``v`` in is after gravity, out is after the solve.
-
-    ``mass[k] > 0`` marks the contacts that take part and ``target[k]`` is the slowest relative velocity each
-    accepts (``stackx.solvers.contacts.prepare`` fills both); ``impulse`` receives each contact's impulse.
-    ``floats`` and ``indices`` are the scratch ``workspace(n)`` makes.
-    """
-    n = v.shape[0]
-    u = floats[0]  # the velocities before the solve
-    for i in range(n):
-        u[i] = v[i]
-    shift = floats[1]  # sum of the targets of the contacts below each box, within its chain
-    # blocks of the pool-adjacent-violators stack; element -1 is the floor
-    first = indices[0]  # the block's lowest box (-1: the floor)
-    weight = floats[2]  # total mass of the movable boxes in the block
-    momentum = floats[3]  # their total mass * shifted velocity
-    pins = floats[4]  # immovable members (the floor, boxes of inverse mass 0)
-    pinned = floats[5]  # sum of the pinned members' shifted velocities
-    value = floats[6]  # the block's shifted velocity
-    block = indices[1]  # the block each box ends in
-    top = -1
-    bottom = 0  # blocks below this index belong to a finished chain and never merge again
-    running = 0.0
-    for i in range(n):
-        if mass[i] > 0.0:
-            running += target[i]
-            if i == 0:
-                top += 1
-                first[top] = -1
-                weight[top], momentum[top], pins[top], pinned[top], value[top] = 0.0, 0.0, 1.0, 0.0, 0.0
-        else:
-            running = 0.0
-            bottom = top + 1
-        shift[i] = running
-        s = u[i] - running
-        top += 1
-        first[top] = i
-        if inv[i] > 0.0:
-            weight[top], momentum[top], pins[top], pinned[top] = 1.0 / inv[i], s / inv[i], 0.0, 0.0
-        else:
-            weight[top], momentum[top], pins[top], pinned[top] = 0.0, 0.0, 1.0, s
-        value[top] = s
-        while top > bottom and value[top - 1] > value[top]:
-            weight[top - 1] += weight[top]
-            momentum[top - 1] += momentum[top]
-            pins[top - 1] += pins[top]
-            pinned[top - 1] += pinned[top]
-            top -= 1
-            value[top] = pinned[top] / pins[top] if pins[top] > 0.0 else momentum[top] / weight[top]
-    first[top + 1] = n
-    for b in range(top + 1):
-        for i in range(max(first[b], 0), first[b + 1]):
-            block[i] = b
-            if inv[i] > 0.0 and first[b + 1] - first[b] > 1:
-                v[i] = value[b] + shift[i]
-    column_impulses(v, u, inv, mass, block, first, impulse)
-
-
-@kernel
-def column_impulses(v: np.ndarray, u: np.ndarray, inv: np.ndarray, mass: np.ndarray, block: np.ndarray,
-                    first: np.ndarray, impulse: np.ndarray) -> None:
-    """Impulses from the momentum changes: zero between blocks, summed from a free end inside a block.
-
-    A run of movable boxes a..b inside one block is bounded below by the floor or an immovable box
-    (``pinned below``) or by a slack contact, and likewise above. Going down from the top of the run, each
-    contact carries the impulse above it plus the momentum change of the box on it. The impulse on the top
-    contact is 0 when the top is slack, the one that makes the bottom contact 0 when only the top is pinned,
-    and the least that keeps every impulse >= 0 when both are pinned (the split is then not unique).
-    """
-    n = v.shape[0]
-    for k in range(n):
-        impulse[k] = 0.0
-    i = n - 1
-    while i >= 0:
-        if inv[i] == 0.0:
-            i -= 1
-            continue
-        b = i
-        a = i
-        while a > 0 and inv[a - 1] > 0.0 and mass[a] > 0.0 and block[a - 1] == block[a]:
-            a -= 1
-        top_pinned = b + 1 < n and mass[b + 1] > 0.0 and block[b + 1] == block[b]
-        bottom_pinned = mass[a] > 0.0 and (first[block[a]] == -1 if a == 0 else block[a - 1] == block[a])
-        total = 0.0
-        lowest = 0.0
-        for k in range(b, a - 1, -1):
-            total += (v[k] - u[k]) / inv[k]
-            impulse[k] = total
-            lowest = min(lowest, total)
-        carried = 0.0
-        if top_pinned and not bottom_pinned:
-            carried = -total
-        elif top_pinned:
-            carried = -lowest
-        if top_pinned:
-            impulse[b + 1] = carried
-        for k in range(a, b + 1):
-            impulse[k] += carried
-        if not bottom_pinned:
-            impulse[a] = 0.0
-        i = a - 1
+    swept: bool = Field(False, description="let a contact join the step when the solved velocities would close "
+                                           "its gap within it, and solve again: no landing ever penetrates, at "
+                                           "any speed (continuous contact); off, a box faster than "
+                                           "speculative/dt lands inside the one below, for position correction "
+                                           "to undo")
 
 
 @kernel
@@ -182,26 +73,91 @@ def exact_velocities(y: np.ndarray, v: np.ndarray, inv: np.ndarray, half: np.nda
 
 
 @kernel
-def exact_advance(y: np.ndarray, v: np.ndarray, inv: np.ndarray, half: np.ndarray, g: np.ndarray,
-                  dt: np.ndarray, slop: np.ndarray, percent: np.ndarray, corrects: np.ndarray,
-                  speculative: np.ndarray, peak: np.ndarray, reach: np.ndarray, touched: np.ndarray,
-                  launch: np.ndarray, steps: int) -> None:
-    """``steps`` steps of every batch row, in place: gravity, exact velocity solve, positions, correction."""
+def join_closing(y: np.ndarray, v: np.ndarray, inv: np.ndarray, half: np.ndarray, dt: float, mass: np.ndarray,
+                 target: np.ndarray) -> bool:
+    """Make every contact that sits the step out but whose gap ``v`` would close within ``dt`` take part, as a
+    speculative contact; True when one joined."""
+    joined = False
+    for k in range(y.shape[0]):
+        total = inverse_mass_sum(inv, k)
+        if mass[k] == 0.0 and total > 0.0:
+            d = depth(y, half, k)
+            if d + (-relative_velocity(v, k)) * dt > 0.0:
+                mass[k] = 1.0 / total
+                target[k] = min(d, 0.0) / dt
+                joined = True
+    return joined
+
+
+@kernel
+def solve_step(y: np.ndarray, v: np.ndarray, inv: np.ndarray, half: np.ndarray, dt: float, speculative: float,
+               swept: bool, mass: np.ndarray, target: np.ndarray, impulse: np.ndarray, floats: np.ndarray,
+               indices: np.ndarray, start: np.ndarray) -> None:
+    """The exact velocity stage of one column, ``v`` after gravity in, solved out. ``swept``: contacts the
+    solved velocities would close join and the solve starts again from ``start`` (scratch for the velocities
+    after gravity); each round adds a contact, so it ends. To need few rounds, a swept step starts with every
+    contact within the distance the column's spread of velocities (the floor's 0 included) covers in ``dt``:
+    no solved relative velocity is usually faster than that spread, so the rounds only mend the rare miss."""
+    margin = speculative
+    if swept:
+        low, high = 0.0, 0.0
+        for i in range(v.shape[0]):
+            start[i] = v[i]
+            low, high = min(low, v[i]), max(high, v[i])
+        margin = max(speculative, (high - low) * dt)
+    prepare(y, inv, half, dt, margin, 0.0, 0.0, np.inf, impulse, mass, target)
+    solve_column(v, inv, mass, target, impulse, floats, indices)
+    while swept and join_closing(y, v, inv, half, dt, mass, target):
+        for i in range(v.shape[0]):
+            v[i] = start[i]
+        solve_column(v, inv, mass, target, impulse, floats, indices)
+
+
+@kernel
+def exact_step(y: np.ndarray, v: np.ndarray, inv: np.ndarray, half: np.ndarray, g: np.ndarray, dt: np.ndarray,
+               speculative: np.ndarray, swept: np.ndarray, out: np.ndarray) -> None:
+    """For every batch row, the velocities a step from ``(y, v)`` (before gravity) ends with when solved
+    exactly with the row's ``speculative`` margin (and, where ``swept``, the contacts it would close): ``v + g*dt``,
+    then the exact velocity solve, into ``out``. What the bench measures every step of
+    every solver against, so it is one call per step for the whole batch."""
     for b in prange(y.shape[0]):
-        yb, vb, ib, hb = y[b], v[b], inv[b], half[b]  # the row's views, made once, not at every stage call
         n = y.shape[1]
         mass = np.zeros(n)
         target = np.zeros(n)
         impulse = np.zeros(n)
+        start = np.zeros(n)
+        floats, indices = workspace(n)
+        ob = out[b]
+        for i in range(n):
+            ob[i] = v[b, i]
+        gravity(ob, g[b], dt[b])
+        solve_step(y[b], ob, inv[b], half[b], dt[b], speculative[b], swept[b], mass, target, impulse, floats,
+                   indices, start)
+
+
+@kernel
+def exact_advance(y: np.ndarray, v: np.ndarray, inv: np.ndarray, half: np.ndarray, g: np.ndarray,
+                  dt: np.ndarray, slop: np.ndarray, percent: np.ndarray, stage: np.ndarray, max_push: np.ndarray,
+                  corrects: np.ndarray, speculative: np.ndarray, swept: np.ndarray, last: np.ndarray,
+                  peak: np.ndarray, reach: np.ndarray, touched: np.ndarray, launch: np.ndarray, steps: int) -> None:
+    """``steps`` steps of every batch row, in place: gravity, exact velocity solve, positions, correction."""
+    for b in prange(y.shape[0]):
+        yb, vb, ib, hb = y[b], v[b], inv[b], half[b]  # the row's views, made once, not at every stage call
+        n = y.shape[1]
+        pf, pi = position_workspace(n)
+        mass = np.zeros(n)
+        target = np.zeros(n)
+        impulse = np.zeros(n)
+        start = np.zeros(n)
         floats, indices = workspace(n)
         for _ in range(steps):
             gravity(vb, g[b], dt[b])
-            prepare(yb, ib, hb, dt[b], speculative[b], 0.0, 0.0, np.inf, impulse, mass, target)
-            solve_column(vb, ib, mass, target, impulse, floats, indices)
+            solve_step(yb, vb, ib, hb, dt[b], speculative[b], swept[b], mass, target, impulse, floats, indices,
+                       start)
             integrate_positions(yb, vb, dt[b])
             if corrects[b]:
-                correct_positions(yb, ib, hb, slop[b], percent[b])
-            observe(yb, vb, hb, peak, reach, touched, launch, b)
+                correct_column(yb, ib, hb, slop[b], percent[b], stage[b], max_push[b] * dt[b], pf, pi)
+            observe(yb, hb, dt[b], last, peak, reach, touched, launch, b)
 
 
 @solvers.register("exact")
@@ -212,9 +168,11 @@ class Exact(Solver):
 
     def __init__(self, params: list[ExactParams], gravity: np.ndarray, dt: np.ndarray) -> None:
         super().__init__(params, gravity, dt)
-        self.corrects, self.slop, self.percent = self.corrections()
+        self.corrects, self.slop, self.percent, self.stage, self.max_push = self.corrections()
         self.speculative = self.column("speculative")
+        self.swept = self.flags("swept")
 
     def advance(self, state: ColumnState, steps: int) -> None:
         exact_advance(state.y, state.v, state.inv_mass, state.half, self.gravity, self.dt, self.slop,
-                      self.percent, self.corrects, self.speculative, *state.monitors(), steps)
+                      self.percent, self.stage, self.max_push, self.corrects, self.speculative, self.swept,
+                      *state.monitors(), steps)

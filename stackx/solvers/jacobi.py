@@ -29,7 +29,8 @@ from stackx.registry import solvers
 from stackx.solvers.base import Correction, LabCorrection
 from stackx.solvers.contacts import (ImpulseParams, ImpulseSolver, prepare, push,
                                     relative_velocity, speculative_field, warm_start)
-from stackx.solvers.pgs import correct_positions, gravity, integrate_positions
+from stackx.solvers.position import correct_column, position_workspace
+from stackx.solvers.pgs import gravity, integrate_positions
 from stackx.state import ColumnState
 
 
@@ -64,13 +65,14 @@ def jacobi_iteration(v: np.ndarray, inv: np.ndarray, impulse: np.ndarray, mass: 
 @kernel
 def jacobi_advance(y: np.ndarray, v: np.ndarray, inv: np.ndarray, half: np.ndarray, g: np.ndarray,
                    dt: np.ndarray, iterations: np.ndarray, carry: np.ndarray, speculative: np.ndarray,
-                   relaxation: np.ndarray, corrects: np.ndarray, slop: np.ndarray, percent: np.ndarray,
-                   impulse: np.ndarray, peak: np.ndarray, reach: np.ndarray, touched: np.ndarray,
+                   relaxation: np.ndarray, corrects: np.ndarray, slop: np.ndarray, percent: np.ndarray, stage: np.ndarray, max_push: np.ndarray,
+                   impulse: np.ndarray, last: np.ndarray, peak: np.ndarray, reach: np.ndarray, touched: np.ndarray,
                    launch: np.ndarray, steps: int) -> None:
     """``steps`` steps of every batch row, in place; ``impulse`` carries over between calls."""
     for b in prange(y.shape[0]):
         yb, vb, ib, hb, pb = y[b], v[b], inv[b], half[b], impulse[b]  # the row's views, made once
         n = y.shape[1]
+        pf, pi = position_workspace(n)
         mass = np.zeros(n)
         target = np.zeros(n)
         change = np.zeros(n)
@@ -82,8 +84,8 @@ def jacobi_advance(y: np.ndarray, v: np.ndarray, inv: np.ndarray, half: np.ndarr
                 jacobi_iteration(vb, ib, pb, mass, target, relaxation[b], change)
             integrate_positions(yb, vb, dt[b])
             if corrects[b]:
-                correct_positions(yb, ib, hb, slop[b], percent[b])
-            observe(yb, vb, hb, peak, reach, touched, launch, b)
+                correct_column(yb, ib, hb, slop[b], percent[b], stage[b], max_push[b] * dt[b], pf, pi)
+            observe(yb, hb, dt[b], last, peak, reach, touched, launch, b)
 
 
 @solvers.register("jacobi")
@@ -97,9 +99,9 @@ class Jacobi(ImpulseSolver):
         self.iterations = self.counts("iterations")
         self.carry = self.flags("warm_start")
         self.relaxation = self.column("relaxation")
-        self.corrects, self.slop, self.percent = self.corrections()
+        self.corrects, self.slop, self.percent, self.stage, self.max_push = self.corrections()
 
     def advance(self, state: ColumnState, steps: int) -> None:
         jacobi_advance(state.y, state.v, state.inv_mass, state.half, self.gravity, self.dt, self.iterations,
-                       self.carry, self.speculative, self.relaxation, self.corrects, self.slop, self.percent,
+                       self.carry, self.speculative, self.relaxation, self.corrects, self.slop, self.percent, self.stage, self.max_push,
                        self.memory(state), *state.monitors(), steps)

@@ -76,7 +76,7 @@ def position_iteration(y: np.ndarray, inv: np.ndarray, half: np.ndarray, slop: f
 def ngs_advance(y: np.ndarray, v: np.ndarray, inv: np.ndarray, half: np.ndarray, g: np.ndarray,
                 dt: np.ndarray, iterations: np.ndarray, carry: np.ndarray, speculative: np.ndarray,
                 position_iterations: np.ndarray, percent: np.ndarray, slop: np.ndarray,
-                max_correction: np.ndarray, impulse: np.ndarray, peak: np.ndarray, reach: np.ndarray,
+                max_correction: np.ndarray, impulse: np.ndarray, last: np.ndarray, peak: np.ndarray, reach: np.ndarray,
                 touched: np.ndarray, launch: np.ndarray, steps: int) -> None:
     """``steps`` steps of every batch row, in place; ``impulse`` carries over between calls."""
     for b in prange(y.shape[0]):
@@ -91,7 +91,7 @@ def ngs_advance(y: np.ndarray, v: np.ndarray, inv: np.ndarray, half: np.ndarray,
             for _ in range(position_iterations[b]):
                 if position_iteration(yb, ib, hb, slop[b], percent[b], max_correction[b]) <= SOLVED * slop[b]:
                     break
-            observe(yb, vb, hb, peak, reach, touched, launch, b)
+            observe(yb, hb, dt[b], last, peak, reach, touched, launch, b)
 
 
 @solvers.register("ngs")

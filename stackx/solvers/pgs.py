@@ -14,11 +14,11 @@ from __future__ import annotations
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
-from stackx.correct import correct
 from stackx.kernel import kernel, prange
 from stackx.monitor import observe
 from stackx.registry import solvers
 from stackx.solvers.base import Correction, LabCorrection, Solver
+from stackx.solvers.position import correct_column, position_workspace
 from stackx.state import ColumnState
 
 
@@ -60,32 +60,23 @@ def integrate_positions(y: np.ndarray, v: np.ndarray, dt: float) -> None:
 
 
 @kernel
-def correct_positions(y: np.ndarray, inv: np.ndarray, half: np.ndarray, slop: float, percent: float) -> None:
-    """Push overlapping contacts apart with ``correct()``, floor first, then pairs bottom-up."""
-    _, up = correct(half[0] - y[0], slop, percent, 0.0, inv[0])
-    y[0] += up
-    for i in range(y.shape[0] - 1):
-        down, up = correct((half[i] + half[i + 1]) - (y[i + 1] - y[i]), slop, percent, inv[i], inv[i + 1])
-        y[i] -= down
-        y[i + 1] += up
-
-
-@kernel
 def pgs_advance(y: np.ndarray, v: np.ndarray, inv: np.ndarray, half: np.ndarray, g: np.ndarray,
                 dt: np.ndarray, iterations: np.ndarray, slop: np.ndarray, percent: np.ndarray,
-                corrects: np.ndarray, peak: np.ndarray, reach: np.ndarray, touched: np.ndarray,
+                corrects: np.ndarray, stage: np.ndarray, max_push: np.ndarray,
+                last: np.ndarray, peak: np.ndarray, reach: np.ndarray, touched: np.ndarray,
                 launch: np.ndarray, steps: int) -> None:
     """``steps`` lab steps of every batch row, in place."""
     for b in prange(y.shape[0]):
         yb, vb, ib, hb = y[b], v[b], inv[b], half[b]  # the row's views, made once, not at every stage call
+        pf, pi = position_workspace(y.shape[1])
         for _ in range(steps):
             gravity(vb, g[b], dt[b])
             for _ in range(iterations[b]):
                 velocity_pass(yb, vb, ib, hb)
             integrate_positions(yb, vb, dt[b])
             if corrects[b]:
-                correct_positions(yb, ib, hb, slop[b], percent[b])
-            observe(yb, vb, hb, peak, reach, touched, launch, b)
+                correct_column(yb, ib, hb, slop[b], percent[b], stage[b], max_push[b] * dt[b], pf, pi)
+            observe(yb, hb, dt[b], last, peak, reach, touched, launch, b)
 
 
 @solvers.register("pgs")
@@ -97,8 +88,8 @@ class PGS(Solver):
     def __init__(self, params: list[PGSParams], gravity: np.ndarray, dt: np.ndarray) -> None:
         super().__init__(params, gravity, dt)
         self.iterations = self.counts("iterations")
-        self.corrects, self.slop, self.percent = self.corrections()
+        self.corrects, self.slop, self.percent, self.stage, self.max_push = self.corrections()
 
     def advance(self, state: ColumnState, steps: int) -> None:
         pgs_advance(state.y, state.v, state.inv_mass, state.half, self.gravity, self.dt, self.iterations,
-                    self.slop, self.percent, self.corrects, *state.monitors(), steps)
+                    self.slop, self.percent, self.corrects, self.stage, self.max_push, *state.monitors(), steps)

@@ -100,7 +100,7 @@ def soft_iteration(y: np.ndarray, v: np.ndarray, inv: np.ndarray, half: np.ndarr
 def soft_step_advance(y: np.ndarray, v: np.ndarray, inv: np.ndarray, half: np.ndarray, g: np.ndarray,
                       dt: np.ndarray, substeps: np.ndarray, hertz: np.ndarray, damping_ratio: np.ndarray,
                       push_out: np.ndarray, relax: np.ndarray, speculative: np.ndarray, impulse: np.ndarray,
-                      peak: np.ndarray, reach: np.ndarray, touched: np.ndarray, launch: np.ndarray,
+                      last: np.ndarray, peak: np.ndarray, reach: np.ndarray, touched: np.ndarray, launch: np.ndarray,
                       steps: int) -> None:
     """``steps`` steps of every batch row, in place; ``impulse`` carries over between calls."""
     for b in prange(y.shape[0]):
@@ -122,7 +122,7 @@ def soft_step_advance(y: np.ndarray, v: np.ndarray, inv: np.ndarray, half: np.nd
                 integrate_positions(yb, vb, h)
                 if relax[b]:
                     soft_iteration(yb, vb, ib, hb, pb, mass, h, False, push_out[b], softness)
-            observe(yb, vb, hb, peak, reach, touched, launch, b)
+            observe(yb, hb, dt[b], last, peak, reach, touched, launch, b)
 
 
 @solvers.register("soft-step")

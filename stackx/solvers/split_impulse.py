@@ -56,7 +56,7 @@ def pseudo_solve(y: np.ndarray, inv: np.ndarray, half: np.ndarray, dt: float, be
 def split_impulse_advance(y: np.ndarray, v: np.ndarray, inv: np.ndarray, half: np.ndarray, g: np.ndarray,
                           dt: np.ndarray, iterations: np.ndarray, carry: np.ndarray, speculative: np.ndarray,
                           position_iterations: np.ndarray, beta: np.ndarray, slop: np.ndarray,
-                          impulse: np.ndarray, peak: np.ndarray, reach: np.ndarray, touched: np.ndarray,
+                          impulse: np.ndarray, last: np.ndarray, peak: np.ndarray, reach: np.ndarray, touched: np.ndarray,
                           launch: np.ndarray, steps: int) -> None:
     """``steps`` steps of every batch row, in place; ``impulse`` carries over between calls."""
     for b in prange(y.shape[0]):
@@ -75,7 +75,7 @@ def split_impulse_advance(y: np.ndarray, v: np.ndarray, inv: np.ndarray, half: n
                          pseudo_impulse, pseudo_mass, pseudo_target)
             integrate_positions(yb, vb, dt[b])
             integrate_positions(yb, pseudo, dt[b])
-            observe(yb, vb, hb, peak, reach, touched, launch, b)
+            observe(yb, hb, dt[b], last, peak, reach, touched, launch, b)
 
 
 @solvers.register("split-impulse")

@@ -31,7 +31,8 @@ from stackx.registry import solvers
 from stackx.solvers.base import Correction, LabCorrection
 from stackx.solvers.contacts import (ImpulseParams, ImpulseSolver, solve_velocities,
                                     speculative_field)
-from stackx.solvers.pgs import correct_positions, integrate_positions
+from stackx.solvers.position import correct_column, position_workspace
+from stackx.solvers.pgs import integrate_positions
 from stackx.state import ColumnState
 
 
@@ -46,13 +47,14 @@ class WarmStartParams(ImpulseParams):
 @kernel
 def warm_start_advance(y: np.ndarray, v: np.ndarray, inv: np.ndarray, half: np.ndarray, g: np.ndarray,
                        dt: np.ndarray, iterations: np.ndarray, carry: np.ndarray, speculative: np.ndarray,
-                       corrects: np.ndarray, slop: np.ndarray, percent: np.ndarray, impulse: np.ndarray,
-                       peak: np.ndarray, reach: np.ndarray, touched: np.ndarray, launch: np.ndarray,
+                       corrects: np.ndarray, slop: np.ndarray, percent: np.ndarray, stage: np.ndarray, max_push: np.ndarray, impulse: np.ndarray,
+                       last: np.ndarray, peak: np.ndarray, reach: np.ndarray, touched: np.ndarray, launch: np.ndarray,
                        steps: int) -> None:
     """``steps`` steps of every batch row, in place; ``impulse`` carries over between calls."""
     for b in prange(y.shape[0]):
         yb, vb, ib, hb, pb = y[b], v[b], inv[b], half[b], impulse[b]  # the row's views, made once
         n = y.shape[1]
+        pf, pi = position_workspace(n)
         mass = np.zeros(n)
         target = np.zeros(n)
         for _ in range(steps):
@@ -60,8 +62,8 @@ def warm_start_advance(y: np.ndarray, v: np.ndarray, inv: np.ndarray, half: np.n
                              iterations[b], pb, mass, target)
             integrate_positions(yb, vb, dt[b])
             if corrects[b]:
-                correct_positions(yb, ib, hb, slop[b], percent[b])
-            observe(yb, vb, hb, peak, reach, touched, launch, b)
+                correct_column(yb, ib, hb, slop[b], percent[b], stage[b], max_push[b] * dt[b], pf, pi)
+            observe(yb, hb, dt[b], last, peak, reach, touched, launch, b)
 
 
 @solvers.register("warm-start")
@@ -74,9 +76,9 @@ class WarmStart(ImpulseSolver):
         super().__init__(params, gravity, dt)
         self.iterations = self.counts("iterations")
         self.carry = self.flags("warm_start")
-        self.corrects, self.slop, self.percent = self.corrections()
+        self.corrects, self.slop, self.percent, self.stage, self.max_push = self.corrections()
 
     def advance(self, state: ColumnState, steps: int) -> None:
         warm_start_advance(state.y, state.v, state.inv_mass, state.half, self.gravity, self.dt, self.iterations,
-                           self.carry, self.speculative, self.corrects, self.slop, self.percent,
+                           self.carry, self.speculative, self.corrects, self.slop, self.percent, self.stage, self.max_push,
                            self.memory(state), *state.monitors(), steps)

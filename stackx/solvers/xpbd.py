@@ -71,7 +71,7 @@ def derive_velocities(y: np.ndarray, before: np.ndarray, v: np.ndarray, h: float
 
 @kernel
 def xpbd_advance(y: np.ndarray, v: np.ndarray, inv: np.ndarray, half: np.ndarray, g: np.ndarray,
-                 dt: np.ndarray, substeps: np.ndarray, compliance: np.ndarray, peak: np.ndarray,
+                 dt: np.ndarray, substeps: np.ndarray, compliance: np.ndarray, last: np.ndarray, peak: np.ndarray,
                  reach: np.ndarray, touched: np.ndarray, launch: np.ndarray, steps: int) -> None:
     """``steps`` steps of every batch row, in place."""
     for b in prange(y.shape[0]):
@@ -86,7 +86,7 @@ def xpbd_advance(y: np.ndarray, v: np.ndarray, inv: np.ndarray, half: np.ndarray
                 integrate_positions(yb, vb, h)
                 project(yb, ib, hb, stiffness)
                 derive_velocities(yb, before, vb, h)
-            observe(yb, vb, hb, peak, reach, touched, launch, b)
+            observe(yb, hb, dt[b], last, peak, reach, touched, launch, b)
 
 
 @solvers.register("xpbd")

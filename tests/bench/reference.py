@@ -94,23 +94,34 @@ def _solve(a: list[list[float]], b: list[float]) -> list[float] | None:
 
 
 def exact_velocities(y: list[float], v: list[float], inv: list[float], half: list[float], g: float,
-                     dt: float) -> list[float]:
+                     dt: float, speculative: float = 0.0) -> list[float]:
     """The step's exact velocities, found by trying every set of tight contacts.
 
-    After gravity ``u = v + g*dt``, contacts with positive depth (and something movable) take part. Each has a
-    row of ``J``: the floor contact ``+1`` on box 0; contact ``k`` ``-1`` on box ``k-1`` and ``+1`` on box ``k``.
-    The answer ``v' = u + M^-1 J^T lam`` has ``lam >= 0``, ``J v' >= 0`` on taking-part contacts and
-    ``lam_k = 0`` wherever ``(J v')_k > 0``. With positive masses that answer is unique, so the first set of
-    tight contacts that satisfies everything gives it.
+    After gravity ``u = v + g*dt``, contacts with depth above ``-speculative`` (and something movable) take
+    part; one with a gap may close it within the step (its relative velocity at least ``depth/dt``), one
+    that touches may not approach (at least 0).
     """
     n = len(y)
     u = [v[i] + g * dt for i in range(n)]
     depth = [half[0] - y[0]] + [(half[i] + half[i + 1]) - (y[i + 1] - y[i]) for i in range(n - 1)]
+    bounds = {k: min(depth[k], 0.0) / dt for k in range(n) if depth[k] > -speculative}
+    return ordered_projection(u, inv, bounds)
+
+
+def ordered_projection(u: list[float], inv: list[float], bounds: dict[int, float]) -> list[float]:
+    """The values closest to ``u`` (weighted by mass) that keep every contact ``k`` of ``bounds`` at a relative
+    value of at least ``bounds[k]`` (the floor contact: ``x[0]``; contact ``k``: ``x[k] - x[k-1]``), found by
+    trying every set of tight contacts. Each contact has a row of ``J``: the floor ``+1`` on box 0; contact
+    ``k`` ``-1`` on box ``k-1`` and ``+1`` on box ``k``. The answer ``x = u + M^-1 J^T lam`` has ``lam >= 0``,
+    ``J x >= bound`` and ``lam_k = 0`` wherever ``(J x)_k > bound_k``; with positive masses it is unique, so
+    the first set of tight contacts that satisfies everything gives it.
+    """
+    n = len(u)
 
     def row(k: int) -> dict[int, float]:
         return {0: 1.0} if k == 0 else {k - 1: -1.0, k: 1.0}
 
-    active = [k for k in range(n) if depth[k] > 0 and sum(inv[i] for i in row(k)) > 0]
+    active = [k for k in sorted(bounds) if sum(inv[i] for i in row(k)) > 0]
 
     def after(lam: dict[int, float]) -> list[float]:
         out = list(u)
@@ -126,10 +137,10 @@ def exact_velocities(y: list[float], v: list[float], inv: list[float], half: lis
         for tight in itertools.combinations(active, size):
             a = [[sum(inv[i] * row(p).get(i, 0.0) * row(q).get(i, 0.0) for i in range(n)) for q in tight]
                  for p in tight]
-            lam_values = _solve(a, [-rel(u, p) for p in tight]) if tight else []
+            lam_values = _solve(a, [bounds[p] - rel(u, p) for p in tight]) if tight else []
             if lam_values is None or any(x < -1e-12 for x in lam_values):
                 continue
             vel = after(dict(zip(tight, lam_values)))
-            if all(rel(vel, k) >= -1e-12 for k in active):
+            if all(rel(vel, k) >= bounds[k] - 1e-12 for k in active):
                 return vel
-    raise AssertionError("no solution found: the velocity problem always has one")
+    raise AssertionError("no solution found: an ordered projection always has one")

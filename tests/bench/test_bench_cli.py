@@ -50,16 +50,15 @@ bench:
   claim: {text: "percent 1.0 oscillates", baseline: {correction.percent: 0.2}}
 """,
 }
-BENCH = "\nbench: {knob: [2, 16], samples: 6, timing: {steps: 30, repeats: 2}}\n"
-TIMED = {"us_per_step", "timing"}  # the only record fields allowed to differ between two benches
+BENCH = "\nbench: {knob: [2, 16], timing: {steps: 30, repeats: 2}}\n"
+TIMED = {"us_per_step", "us_per_call", "timing"}  # the only record fields allowed to differ between two benches
 
 
 def _write_cases(folder: Path) -> None:
     folder.mkdir()
     for name, text in CASES.items():
         if "bench:" in text:  # the case's own section gets the tiny settings too
-            text = text.replace("bench:\n", "bench:\n  knob: [2, 16]\n  samples: 6\n"
-                                            "  timing: {steps: 30, repeats: 2}\n")
+            text = text.replace("bench:\n", "bench:\n  knob: [2, 16]\n  timing: {steps: 30, repeats: 2}\n")
         else:
             text += BENCH
         (folder / f"{name}.yaml").write_text(text)
@@ -112,15 +111,18 @@ def test_records_carry_what_the_report_promises(bench_out: Path, doc: dict) -> N
         assert case["config_sha256"] == hashlib.sha256(file.read_bytes()).hexdigest()
         for r in case["records"]:
             assert r["us_per_step"] > 0 and len(r["timing"]["repeats"]) == 2
+            assert r["us_per_call"] > 0 and len(r["timing"]["call_repeats"]) == 2
             assert set(r["measures"]) >= {"max_depth", "peak_depth", "reach", "launch", "rms_motion", "top_rest_error",
                                           "top_p2p"}
-            assert r["error"]["rms"] >= 0 and len(r["error"]["steps"]) >= 5
+            measured = r["crushed_at"] - 1 if r["crushed"] else case["steps"]  # every step before the crushing one
+            assert r["error"]["steps"] == measured and (r["error"]["rms"] is None or r["error"]["rms"] >= 0)
             assert set(r["criteria"]) == {"holds", "settled", "never_launched"}
 
 
 def _judged(m: dict) -> bool:
     """The hard cases' definitions, written out: 2 x slop 0.01, reach 1, motion below 1e-4, launch 1 m/s."""
-    return m["max_depth"] <= 0.02 and m["reach"] <= 1.0 and m["rms_motion"] < 1e-4 and m["launch"] <= 1.0
+    return (m["max_depth"] <= 0.02 and m["max_gap"] <= 0.02 and abs(m["top_rest_error"]) <= 0.015 * m["boxes"]
+            and m["reach"] <= 1.0 and m["rms_motion"] < 1e-4 and m["launch"] <= 1.0)
 
 
 def test_pass_and_matrix_follow_the_measures(doc: dict) -> None:
@@ -256,6 +258,7 @@ def test_a_bench_case_is_one_run(cli: Cli, tmp_path: Path) -> None:
 def test_hard_configs_validate_and_name_every_case(cli: Cli) -> None:
     names = {p.stem for p in (REPO / "configs" / "hard").glob("*.yaml")}
     assert names == {"tall-20", "tall-100", "tall-1000", "ratio-100", "ratio-1000", "light-on-heavy", "overlap-25",
-                     "load-removal", "drop-fast", "big-dt", "long-rest", "percent-1", "slop-0"}
+                     "load-removal", "drop-fast", "big-dt", "long-rest", "percent-1", "slop-0", "gap-200", "gap-1000",
+                     "drop-200", "recovery-10", "recovery-100", "recovery-1000"}
     done = cli("validate", REPO / "configs" / "hard")
     assert done.returncode == 0, done.stderr

@@ -13,8 +13,10 @@ from stackx.state import ColumnState
 LAB = Criteria()  # the hard cases' definitions: 2 x slop 0.01, RMS motion below 1e-4 m/s, launch up to 1 m/s
 
 
-def measures(depth: float = 0.01, reach: float = 0.1, motion: float = 0.0, launch: float = 0.0) -> dict[str, float]:
-    return {"max_depth": depth, "reach": reach, "rms_motion": motion, "launch": launch}
+def measures(depth: float = 0.01, reach: float = 0.1, motion: float = 0.0, launch: float = 0.0, gap: float = 0.0,
+             rest: float = -0.05, boxes: int = 5) -> dict[str, float]:
+    return {"max_depth": depth, "reach": reach, "rms_motion": motion, "launch": launch, "max_gap": gap,
+            "top_rest_error": rest, "boxes": boxes}
 
 
 def test_defaults_are_the_hard_cases_definitions() -> None:
@@ -66,13 +68,15 @@ def test_a_nan_measure_never_passes() -> None:
     assert not any(x.passed for x in v.values())
 
 
-def _observed(y: list[float], v: list[float]) -> dict[str, float]:
-    """Monitors of a column after one observed state, as the runner reports them."""
-    state = ColumnState(np.array([y]), np.array([v]), np.ones((1, len(y))), np.full((1, len(y)), 0.5))
+def _observed(y: list[float], v: list[float], dt: float = 0.5) -> dict[str, float]:
+    """Monitors of a column after one observed step that started at ``y`` (where touching boxes count as having
+    touched) and moved each box by ``v * dt``: the launch is that motion, whatever velocity was stored."""
+    state = ColumnState(np.array([y]), np.zeros((1, len(y))), np.ones((1, len(y))), np.full((1, len(y)), 0.5))
+    state.y[0] += np.array(v) * dt
     with kernel.compiled(False):  # one call: the plain path, no compiler to load
-        observe(state.y[0], state.v[0], state.half[0], *state.monitors(), 0)
-    depth = float(state.penetration()[0].max())
-    return {"max_depth": depth, "reach": float(state.reach[0]), "rms_motion": 0.0, "launch": float(state.launch[0])}
+        observe(state.y[0], state.half[0], dt, *state.monitors(), 0)
+    return {**measures(depth=float(state.penetration()[0].max()), reach=float(state.reach[0]),
+                       launch=float(state.launch[0]), boxes=len(y))}
 
 
 def test_criteria_read_the_monitors_as_the_hard_cases_mean_them() -> None:
@@ -81,7 +85,26 @@ def test_criteria_read_the_monitors_as_the_hard_cases_mean_them() -> None:
     sunk = _observed([0.5, 0.9], [0.0, 0.0])
     assert sunk["reach"] == pytest.approx(0.6 / 0.5)
     assert not judge(sunk, LAB)["holds"].passed
-    thrown = _observed([0.49, 1.48], [0.0, 2.0])
+    thrown = _observed([0.49, 1.48], [0.0, 2.0])  # touching at the start, 1 m higher after the step of 0.5 s
+    assert thrown["launch"] == pytest.approx(2.0)
     assert not judge(thrown, LAB)["never_launched"].passed
     free = _observed([0.5, 3.0], [0.0, 2.0])
     assert judge(free, LAB)["never_launched"].passed
+
+
+@pytest.mark.parametrize("gap, holds", [(0.0, True), (0.02, True), (0.0201, False), (0.05, False)])
+def test_holds_fails_on_a_gap_beyond_twice_the_slop(gap: float, holds: bool) -> None:
+    """A column resting on air (an engine's contact skin) does not hold, however small its depths."""
+    v = judge(measures(depth=0.0, gap=gap, rest=gap), LAB)
+    assert v["holds"].passed is holds
+    assert not holds or v["holds"].failing == ""
+    assert holds or v["holds"].failing.startswith(f"max_gap {gap:.3g} > 0.02")
+
+
+@pytest.mark.parametrize("rest, boxes, holds", [(-0.075, 5, True), (0.075, 5, True), (-0.0751, 5, False),
+                                                (-1.5, 100, True), (-1.51, 100, False)])
+def test_holds_bounds_the_top_box_by_one_and_a_half_slop_per_contact(rest: float, boxes: int, holds: bool) -> None:
+    """Every contact within twice the slop, but all of them sunk by more than 1.5 slop on average: the top box
+    is too low, and 'holds' says so (1.5 x 0.01 m x contacts)."""
+    v = judge(measures(depth=0.019, rest=rest, boxes=boxes), LAB)
+    assert v["holds"].passed is holds

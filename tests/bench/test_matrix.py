@@ -2,11 +2,12 @@
 
 from __future__ import annotations
 
-from stackx.bench.compare import cell
+from stackx.bench.compare import cell, equal_cost, pareto
 from stackx.bench.sweep import Record
 from stackx.criteria import Criteria, judge, passed
 
-CALM = {"max_depth": 0.005, "reach": 0.01, "rms_motion": 0.0, "launch": 0.0}
+CALM = {"max_depth": 0.005, "max_gap": 0.0, "top_rest_error": -0.03, "boxes": 6, "reach": 0.01, "rms_motion": 0.0,
+        "launch": 0.0}
 
 
 def _record(value: int, **measures: float) -> Record:
@@ -34,6 +35,33 @@ def test_a_passing_cell_gives_the_smallest_passing_knob_and_the_count() -> None:
 
 def test_a_blown_up_cell_says_so() -> None:
     rec = Record("drop", "pgs", "iterations", 8, "case", {"iterations": 8}, blew_up="run 'x' blew up at step 3")
-    rec.criteria = {name: {"passed": False, "failing": "blew up", "checks": []} for name in CALM}
+    rec.criteria = {name: {"passed": False, "failing": "blew up", "checks": []}
+                    for name in ("holds", "settled", "never_launched")}
     got = cell([rec])
     assert got.short() == "FAIL blew up" and got.failing == "blew up: at step 3"
+
+
+def test_a_crushed_cell_says_where_and_shows_no_figure() -> None:
+    rec = _record(64, max_depth=114.0, reach=228.0, top_rest_error=-3228.0)
+    rec.crushed_at = 40
+    got = cell([_record(4, launch=3.0), rec])
+    assert not got.passed and got.short() == "CRUSHED" and got.crushed_at == 40
+    assert got.text() == ("FAIL at iterations 64: crushed at step 40 (boxes passed through each other; its figures "
+                          "are left out)")
+
+
+def _timed(solver: str, value: int | None, us: float, error: float, crushed_at: int | None = None) -> Record:
+    rec = _record(value or 0)
+    rec.solver, rec.value, rec.us_per_step, rec.error, rec.crushed_at = solver, value, us, {"rms": error}, crushed_at
+    return rec
+
+
+def test_fronts_and_winners_leave_out_the_reference_and_crushed_runs() -> None:
+    """exact is error 0 by definition and a crushed run's error describes no column: neither may win."""
+    records = [_timed("exact", None, 0.1, 0.0), _timed("pgs", 4, 0.2, 1e-7, crushed_at=12),
+               _timed("pgs", 16, 1.0, 1e-3), _timed("warm-start", 8, 0.5, 1e-2)]
+    assert [(r.solver, r.value) for r in pareto(records)] == [("warm-start", 8), ("pgs", 16)]
+    rows = {row["target"]: row for row in equal_cost(records)}
+    assert rows[1e-2]["winner"] == "warm-start" and rows[1e-3]["winner"] == "pgs"
+    assert rows[1e-6]["winner"] is None
+    assert all(s["solver"] != "exact" for row in rows.values() for s in row["solvers"])

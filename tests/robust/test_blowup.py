@@ -55,7 +55,7 @@ class NanAt(Solver):
                 state.y[b] += state.v[b] * self.dt[b]
                 if self.count[0] == p.at:
                     state.y[b, p.box] = np.nan
-                observe(state.y[b], state.v[b], state.half[b], *state.monitors(), b)
+                observe(state.y[b], state.half[b], self.dt[b], *state.monitors(), b)
 '''
 
 

@@ -44,7 +44,6 @@ def test_the_lab_solver_is_crushed_by_a_heavy_box_on_light_ones() -> None:
     ("exact", {"speculative": 0.0}),
     ("xpbd", {}),
     ("soft-step", {}),
-    ("split-impulse", {}),
 ])
 def test_holds_twenty_boxes(name: str, params: dict[str, Any]) -> None:
     got = tall(20, name, **params)
@@ -56,6 +55,7 @@ def test_holds_twenty_boxes(name: str, params: dict[str, Any]) -> None:
     ("baumgarte", {}),  # its bias throws boxes up while the load builds (launch 3.4 m/s)
     ("ngs", {}),  # still creeping at the end
     ("jacobi", {}),  # half steps: the load reaches the floor too slowly
+    ("split-impulse", {}),  # its position pass throws boxes up at 1.25 m/s, seen from positions
 ])
 def test_does_not_pass_twenty_boxes_at_its_defaults(name: str, params: dict[str, Any]) -> None:
     assert not tall(20, name, **params).passes

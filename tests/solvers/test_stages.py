@@ -10,7 +10,7 @@ import pytest
 from stackx.solvers.contacts import prepare, velocity_iteration, warm_start
 from stackx.solvers.jacobi import jacobi_iteration
 from stackx.solvers.ngs import position_iteration
-from stackx.solvers.pgs import correct_positions
+from stackx.solvers.position import correct_positions
 from stackx.solvers.soft_step import soft
 from stackx.solvers.split_impulse import pseudo_solve
 from stackx.solvers.xpbd import project
