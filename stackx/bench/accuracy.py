@@ -84,7 +84,8 @@ class RowLog:
         ``steps`` were measured (all, or those before the run was crushed)."""
         if self.values == 0:
             return {"rms": None, "max": None, "worst_step": None, "steps": 0}
-        return {"rms": float(np.sqrt(self.sumsq / self.values)), "max": self.worst, "worst_step": self.worst_step,
+        worst_step = self.worst_step if self.worst != 0.0 else None  # no step is worst where none differs
+        return {"rms": float(np.sqrt(self.sumsq / self.values)), "max": self.worst, "worst_step": worst_step,
                 "steps": self.measured}
 
     def timeline(self) -> dict[str, int | None]:

@@ -20,10 +20,10 @@ COMPARED = ("rms_motion", "top_p2p", "top_reversals", "top_rise", "max_depth", "
 
 
 def pairs(records: list[Record]) -> list[tuple[Record, Record]]:
-    """(case setting, lab setting) records of the same solver and knob value, both measured."""
-    base = {(r.solver, r.value): r for r in records if r.variant == BASELINE and not r.blew_up}
+    """(case setting, lab setting) records of the same solver and knob value, neither blown up nor crushed."""
+    base = {(r.solver, r.value): r for r in records if r.variant == BASELINE and not r.broke}
     return [(r, base[(r.solver, r.value)]) for r in records
-            if r.variant == CASE and not r.blew_up and (r.solver, r.value) in base]
+            if r.variant == CASE and not r.broke and (r.solver, r.value) in base]
 
 
 def _settings(values: dict[str, Any]) -> str:
