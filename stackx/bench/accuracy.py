@@ -33,114 +33,140 @@ does not reach it.
 
 from __future__ import annotations
 
-import importlib
-from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
-from stackx import registry
 from stackx.config import RunSpec
 from stackx.criteria import Criteria
-from stackx.errors import ConfigError
+from stackx.kernel import kernel
 from stackx.runner import OnStep
+from stackx.solvers.exact import solve_step
+from stackx.solvers.isotonic import workspace
+from stackx.solvers.pgs import gravity
 from stackx.state import ColumnState
 
-Reference = Callable[..., None]
-"""``(y, v, inv, half, g, dt, speculative, swept, out)``, batch arrays: ``out`` receives the exact step's velocities
-from heights ``y`` and velocities ``v`` before the step (``stackx.solvers.exact.exact_step``)."""
-
-REFERENCE_SOLVER = "exact"
+REFERENCE_SOLVER = "exact"  # the solver whose velocity stage every step is measured against
 
 
-def find_reference() -> Reference | None:
-    """The exact step, from the ``exact`` solver's module (its ``exact_step`` kernel); None when no such solver
-    is registered."""
-    try:
-        cls = registry.solvers.get(REFERENCE_SOLVER)
-    except ConfigError:
-        return None
-    return getattr(importlib.import_module(cls.__module__), "exact_step", None)  # type: ignore[no-any-return]
+class BatchLog:
+    """What the steps of one batch came to, one array element per row: kept as arrays so that a step costs a
+    few numpy operations whatever the batch size (the bench observes every step of runs 100,000 steps long)."""
+
+    def __init__(self, rows: int) -> None:
+        self.sumsq = np.zeros(rows)
+        self.values = np.zeros(rows, dtype=np.int64)     # velocities compared (steps x boxes)
+        self.measured = np.zeros(rows, dtype=np.int64)   # steps compared
+        self.worst = np.full(rows, -1.0)
+        self.worst_step = np.full(rows, -1, dtype=np.int64)
+        self.crushed_at = np.full(rows, -1, dtype=np.int64)
+        self.last_overlap = np.full(rows, -1, dtype=np.int64)  # last step after which a contact overlapped too much
+        self.last_unheld = np.full(rows, -1, dtype=np.int64)   # ... overlapped or had too wide a gap
+        self.last_moving = np.full(rows, -1, dtype=np.int64)   # ... moved at or above the settled limit
+        self.steps = 0
 
 
 @dataclass
 class RowLog:
-    """What one run's steps came to (see the module text)."""
+    """What one run's steps came to (see the module text): row ``b`` of a ``BatchLog``."""
 
-    sumsq: float = 0.0
-    values: int = 0          # velocities compared (steps x boxes)
-    measured: int = 0        # steps compared
-    worst: float = 0.0
-    worst_step: int | None = None
-    crushed_at: int | None = None
-    last_overlap: int = -1   # last step after which some contact overlapped beyond the depth limit
-    last_unheld: int = -1    # ... overlapped or had a gap beyond it
-    last_moving: int = -1    # ... moved at or above the settled limit
-    steps: int = 0
+    log: BatchLog
+    b: int
 
     def error(self) -> dict[str, Any]:
-        """``rms`` and ``max`` (m/s) over every step measured, the ``worst_step`` (0-based), and how many
-        ``steps`` were measured (all, or those before the run was crushed)."""
-        if self.values == 0:
+        """``rms`` and ``max`` (m/s) over every step measured, the ``worst_step`` (0-based; None where no step
+        differs), and how many ``steps`` were measured (all, or those before the run was crushed)."""
+        log, b = self.log, self.b
+        if log.values[b] == 0:
             return {"rms": None, "max": None, "worst_step": None, "steps": 0}
-        worst_step = self.worst_step if self.worst != 0.0 else None  # no step is worst where none differs
-        return {"rms": float(np.sqrt(self.sumsq / self.values)), "max": self.worst, "worst_step": worst_step,
-                "steps": self.measured}
+        worst = float(log.worst[b])
+        return {"rms": float(np.sqrt(log.sumsq[b] / log.values[b])), "max": worst,
+                "worst_step": int(log.worst_step[b]) if worst != 0.0 else None, "steps": int(log.measured[b])}
+
+    @property
+    def crushed_at(self) -> int | None:
+        return int(self.log.crushed_at[self.b]) if self.log.crushed_at[self.b] >= 0 else None
 
     def timeline(self) -> dict[str, int | None]:
         """``steps_to_recover`` and ``steps_to_settle``: None when the last step did not get there."""
-        last = self.steps - 1
-        recover = None if self.last_overlap == last else self.last_overlap + 1
-        settle_at = max(self.last_unheld, self.last_moving)
-        return {"steps_to_recover": recover, "steps_to_settle": None if settle_at == last else settle_at + 1,
-                "crushed_at": self.crushed_at}
+        log, b = self.log, self.b
+        last = log.steps - 1
+        overlap, settle_at = int(log.last_overlap[b]), int(max(log.last_unheld[b], log.last_moving[b]))
+        return {"steps_to_recover": None if overlap == last else overlap + 1,
+                "steps_to_settle": None if settle_at == last else settle_at + 1, "crushed_at": self.crushed_at}
+
+
+@kernel
+def log_step(k: int, y: np.ndarray, v: np.ndarray, after_y: np.ndarray, after_v: np.ndarray, inv: np.ndarray,
+             half: np.ndarray, reach: np.ndarray, g: np.ndarray, dt: np.ndarray, speculative: np.ndarray,
+             swept: np.ndarray, limit: float, settle: float, reach_limit: float,
+             sumsq: np.ndarray, values: np.ndarray, measured: np.ndarray, worst: np.ndarray, worst_step: np.ndarray,
+             crushed_at: np.ndarray, last_overlap: np.ndarray, last_unheld: np.ndarray,
+             last_moving: np.ndarray) -> None:
+    """Log step ``k`` of every batch row, from heights ``y`` and velocities ``v`` before it to ``after_y``,
+    ``after_v`` (see the module text): one call per step for the whole batch, compiled with the solvers."""
+    n = y.shape[1]
+    for b in range(y.shape[0]):
+        overlap, gap, motion = False, False, 0.0
+        for c in range(n):
+            if c == 0:
+                d = half[b, 0] - after_y[b, 0]
+            else:
+                d = (half[b, c - 1] + half[b, c]) - (after_y[b, c] - after_y[b, c - 1])
+            overlap = overlap or d > limit
+            gap = gap or -d > limit
+            speed = (after_y[b, c] - y[b, c]) / dt[b]
+            motion += speed * speed
+        if overlap:
+            last_overlap[b] = k
+        if overlap or gap:
+            last_unheld[b] = k
+        if not np.sqrt(motion / n) < settle:
+            last_moving[b] = k
+        if crushed_at[b] < 0 and not reach[b] <= reach_limit:
+            crushed_at[b] = k + 1
+        if crushed_at[b] >= 0:
+            continue
+        exact = np.empty(n)
+        for i in range(n):
+            exact[i] = v[b, i]
+        gravity(exact, g[b], dt[b])
+        solve_step(y[b], exact, inv[b], half[b], dt[b], speculative[b], swept[b], np.zeros(n), np.zeros(n),
+                   np.zeros(n), *workspace(n), np.zeros(n))
+        top = 0.0
+        for i in range(n):
+            diff = abs(after_v[b, i] - exact[i])
+            sumsq[b] += diff * diff
+            if not diff <= top:  # a NaN difference is the worst there is
+                top = diff
+        values[b] += n
+        measured[b] += 1
+        if not top <= worst[b]:
+            worst[b] = top
+            worst_step[b] = k
 
 
 class StepLog:
     """A ``stackx.runner.StepObserver`` keeping a ``RowLog`` per run name."""
 
-    def __init__(self, criteria: Criteria, reference: Reference | None) -> None:
-        self.criteria, self.reference = criteria, reference
+    def __init__(self, criteria: Criteria) -> None:
+        self.criteria = criteria
         self.rows: dict[str, RowLog] = {}
 
     def batch(self, runs: list[RunSpec]) -> OnStep:
-        logs = [self.rows.setdefault(r.name, RowLog()) for r in runs]
+        log = BatchLog(len(runs))
+        self.rows.update((r.name, RowLog(log, b)) for b, r in enumerate(runs))
         g = np.array([r.gravity for r in runs], dtype=np.float64)
         dt = np.array([r.dt for r in runs], dtype=np.float64)
         speculative = np.array([float(getattr(r.solver_params, "speculative", 0.0)) for r in runs])
         swept = np.array([bool(getattr(r.solver_params, "swept", False)) for r in runs])
-        limit, settle, reach = self.criteria.depth_limit, self.criteria.settle, self.criteria.reach
-        reference = self.reference
+        c = self.criteria
 
         def on_step(k: int, y: np.ndarray, v: np.ndarray, after: ColumnState) -> None:
-            d = after.depths()
-            overlap = d.max(axis=1) > limit
-            gap = (-d).max(axis=1) > limit
-            motion = np.sqrt(np.mean(((after.y - y) / dt[:, None]) ** 2, axis=1))
-            moving = ~(motion < settle)
-            diff = None
-            if reference is not None:
-                exact = np.empty_like(v)
-                reference(y, v, after.inv_mass, after.half, g, dt, speculative, swept, exact)
-                diff = np.abs(after.v - exact)
-            for b, log in enumerate(logs):
-                log.steps = k + 1
-                if overlap[b]:
-                    log.last_overlap = k
-                if overlap[b] or gap[b]:
-                    log.last_unheld = k
-                if moving[b]:
-                    log.last_moving = k
-                if log.crushed_at is None and not after.reach[b] <= reach:
-                    log.crushed_at = k + 1
-                if diff is not None and log.crushed_at is None:
-                    row = diff[b]
-                    log.sumsq += float(np.dot(row, row))
-                    log.values += row.shape[0]
-                    log.measured += 1
-                    top = float(row.max())
-                    if log.worst_step is None or not top <= log.worst:
-                        log.worst, log.worst_step = top, k
+            log.steps = k + 1
+            log_step(k, y, v, after.y, after.v, after.inv_mass, after.half, after.reach, g, dt, speculative, swept,
+                     c.depth_limit, c.settle, c.reach, log.sumsq, log.values, log.measured, log.worst,
+                     log.worst_step, log.crushed_at, log.last_overlap, log.last_unheld, log.last_moving)
 
         return on_step

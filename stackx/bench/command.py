@@ -13,7 +13,6 @@ from pathlib import Path
 from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
-from stackx.bench.accuracy import find_reference
 from stackx.bench.plan import Case, load_case
 from stackx.bench.report import CaseResult, write
 from stackx.bench.sweep import run_case, work
@@ -42,7 +41,6 @@ def bench(paths: list[str], solvers: list[str] | None, out: Path, plugins: Path 
           quiet: bool = False, command: str = "stackx bench", sets: list[str] | None = None) -> list[CaseResult]:
     """Bench ``paths`` with ``solvers`` (None: every built-in and installed one); write into ``out``."""
     cases = load_cases(paths, solvers, plugins, sets)
-    reference = find_reference()
     console = Console(stderr=True)
     start = time.perf_counter()
     results = []
@@ -51,7 +49,7 @@ def bench(paths: list[str], solvers: list[str] | None, out: Path, plugins: Path 
         task = bar.add_task("bench", total=sum(work(c) for c, _ in cases) or 1)
         for case, left_out in cases:
             bar.update(task, description=case.name)
-            records = run_case(case, reference, lambda n: bar.advance(task, n))
+            records = run_case(case, lambda n: bar.advance(task, n))
             results.append(CaseResult.build(case, records, left_out))
     wall = time.perf_counter() - start
     staged = OutputDir(out)
@@ -62,7 +60,5 @@ def bench(paths: list[str], solvers: list[str] | None, out: Path, plugins: Path 
         if not screen.is_terminal:
             screen = Console(width=max(screen.width, WIDE))  # a log file gets the whole table, not a squeezed one
         print_all(results, screen)
-        if reference is None:
-            screen.print("no 'exact' solver is registered: errors against it are not measured")
         screen.print(f"wrote {out / 'bench.json'} and {out / 'report.html'} in {wall:.1f} s")
     return results

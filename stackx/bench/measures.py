@@ -21,7 +21,8 @@ def extra_measures(result: RunResult) -> dict[str, float]:
     half = final.half[0]
     rest = float(2.0 * half[:-1].sum() + half[-1])
     tops = [result.frames[k].y[0, -1] for k in motion_steps(steps)]
-    return {"max_gap": float(max(0.0, -final.depths()[0].min())), "top_rest_error": float(final.y[0, -1]) - rest, "top_p2p": float(max(tops) - min(tops)),
+    return {"max_gap": float(max(0.0, -final.depths()[0].min())), "top_rest_error": float(final.y[0, -1]) - rest,
+            "top_p2p": float(max(tops) - min(tops)),
             "boxes": float(final.boxes)}
 
 

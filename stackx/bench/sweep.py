@@ -17,7 +17,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
-from stackx.bench.accuracy import Reference, RowLog, StepLog
+from stackx.bench.accuracy import RowLog, StepLog
 from stackx.bench.measures import extra_measures, top_motion
 from stackx.bench.plan import CASE, Case, SolverPlan
 from stackx.bench.timing import one_thread, time_run
@@ -70,8 +70,7 @@ def _run_name(plan: SolverPlan, variant: str, value: int) -> str:
     return f"{plan.solver}/{variant}/{value}"
 
 
-def _measure(case: Case, plan: SolverPlan, variant: str, value: int, result: RunResult, log: RowLog,
-             reference: Reference | None) -> Record:
+def _measure(case: Case, plan: SolverPlan, variant: str, value: int, result: RunResult, log: RowLog) -> Record:
     rec = _record(case, plan, variant, value)
     m = result.measures
     rec.measures = {k: float(m[k]) for k in RUN_MEASURES}  # type: ignore[arg-type]
@@ -80,7 +79,7 @@ def _measure(case: Case, plan: SolverPlan, variant: str, value: int, result: Run
     if case.section.claim is not None:
         rec.measures.update(top_motion(result))
     rec.crushed_at = log.crushed_at
-    rec.error = log.error() if reference is not None else {}
+    rec.error = log.error()
     verdicts = judge(rec.measures, case.section.criteria)
     rec.criteria = {name: v.as_dict() for name, v in verdicts.items()}
     rec.passed = passed(verdicts)
@@ -106,8 +105,7 @@ def _runs(case: Case, plan: SolverPlan) -> list[tuple[str, int, RunSpec]]:
             for variant, by_value in plan.params.items() for value, params in by_value.items()]
 
 
-def run_plan(case: Case, plan: SolverPlan, reference: Reference | None,
-             progress: Progress | None = None) -> list[Record]:
+def run_plan(case: Case, plan: SolverPlan, progress: Progress | None = None) -> list[Record]:
     """Every run of one solver on a case, measured; a blow-up is retried alone to find which rows blew up."""
     # a claim about bouncing is judged on every step's state (see top_motion)
     record = set(range(case.run.steps + 1)) if case.section.claim is not None else None
@@ -117,7 +115,7 @@ def run_plan(case: Case, plan: SolverPlan, reference: Reference | None,
         experiment = dataclasses.replace(case.spec, runs=specs, outputs=[])
         return {r.name: r for r in run_experiment(experiment, report, log, record).runs}
 
-    log = StepLog(case.section.criteria, reference)
+    log = StepLog(case.section.criteria)
     try:
         results = run([r for _, _, r in runs], log, progress)
     except RunError:
@@ -132,7 +130,7 @@ def run_plan(case: Case, plan: SolverPlan, reference: Reference | None,
             except RunError as exc:
                 out.append(_blown(case, plan, variant, value, str(exc)))
                 continue
-        out.append(_measure(case, plan, variant, value, result, log.rows[spec.name], reference))
+        out.append(_measure(case, plan, variant, value, result, log.rows[spec.name]))
     return out
 
 
@@ -149,12 +147,12 @@ def time_plan(case: Case, plan: SolverPlan, records: list[Record]) -> None:
                 rec.timing = timing
 
 
-def run_case(case: Case, reference: Reference | None, progress: Progress | None = None) -> list[Record]:
+def run_case(case: Case, progress: Progress | None = None) -> list[Record]:
     """Every plan of a case: measured, judged and timed, on one thread (see ``one_thread``)."""
     records: list[Record] = []
     with one_thread():
         for plan in case.plans:
-            found = run_plan(case, plan, reference, progress)
+            found = run_plan(case, plan, progress)
             time_plan(case, plan, found)
             records.extend(found)
     return records

@@ -114,28 +114,6 @@ def solve_step(y: np.ndarray, v: np.ndarray, inv: np.ndarray, half: np.ndarray, 
 
 
 @kernel
-def exact_step(y: np.ndarray, v: np.ndarray, inv: np.ndarray, half: np.ndarray, g: np.ndarray, dt: np.ndarray,
-               speculative: np.ndarray, swept: np.ndarray, out: np.ndarray) -> None:
-    """For every batch row, the velocities a step from ``(y, v)`` (before gravity) ends with when solved
-    exactly with the row's ``speculative`` margin (and, where ``swept``, the contacts it would close): ``v + g*dt``,
-    then the exact velocity solve, into ``out``. What the bench measures every step of
-    every solver against, so it is one call per step for the whole batch."""
-    for b in prange(y.shape[0]):
-        n = y.shape[1]
-        mass = np.zeros(n)
-        target = np.zeros(n)
-        impulse = np.zeros(n)
-        start = np.zeros(n)
-        floats, indices = workspace(n)
-        ob = out[b]
-        for i in range(n):
-            ob[i] = v[b, i]
-        gravity(ob, g[b], dt[b])
-        solve_step(y[b], ob, inv[b], half[b], dt[b], speculative[b], swept[b], mass, target, impulse, floats,
-                   indices, start)
-
-
-@kernel
 def exact_advance(y: np.ndarray, v: np.ndarray, inv: np.ndarray, half: np.ndarray, g: np.ndarray,
                   dt: np.ndarray, slop: np.ndarray, percent: np.ndarray, stage: np.ndarray, max_push: np.ndarray,
                   corrects: np.ndarray, speculative: np.ndarray, swept: np.ndarray, last: np.ndarray,
