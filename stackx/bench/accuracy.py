@@ -54,7 +54,9 @@ class BatchLog:
     """What the steps of one batch came to, one array element per row: kept as arrays so that a step costs a
     few numpy operations whatever the batch size (the bench observes every step of runs 100,000 steps long)."""
 
-    def __init__(self, rows: int) -> None:
+    def __init__(self, rows: int, boxes: int) -> None:
+        self.scratch = np.empty((5, boxes))  # the exact step's velocities, contact masses, targets, impulses, start
+        self.floats, self.indices = workspace(boxes)
         self.sumsq = np.zeros(rows)
         self.values = np.zeros(rows, dtype=np.int64)     # velocities compared (steps x boxes)
         self.measured = np.zeros(rows, dtype=np.int64)   # steps compared
@@ -94,7 +96,7 @@ class RowLog:
         last = log.steps - 1
         overlap, settle_at = int(log.last_overlap[b]), int(max(log.last_unheld[b], log.last_moving[b]))
         return {"steps_to_recover": None if overlap == last else overlap + 1,
-                "steps_to_settle": None if settle_at == last else settle_at + 1, "crushed_at": self.crushed_at}
+                "steps_to_settle": None if settle_at == last else settle_at + 1}
 
 
 @kernel
@@ -102,10 +104,11 @@ def log_step(k: int, y: np.ndarray, v: np.ndarray, after_y: np.ndarray, after_v:
              half: np.ndarray, reach: np.ndarray, g: np.ndarray, dt: np.ndarray, speculative: np.ndarray,
              swept: np.ndarray, limit: float, settle: float, reach_limit: float,
              sumsq: np.ndarray, values: np.ndarray, measured: np.ndarray, worst: np.ndarray, worst_step: np.ndarray,
-             crushed_at: np.ndarray, last_overlap: np.ndarray, last_unheld: np.ndarray,
-             last_moving: np.ndarray) -> None:
+             crushed_at: np.ndarray, last_overlap: np.ndarray, last_unheld: np.ndarray, last_moving: np.ndarray,
+             scratch: np.ndarray, floats: np.ndarray, indices: np.ndarray) -> None:
     """Log step ``k`` of every batch row, from heights ``y`` and velocities ``v`` before it to ``after_y``,
-    ``after_v`` (see the module text): one call per step for the whole batch, compiled with the solvers."""
+    ``after_v`` (see the module text): one call per step for the whole batch, compiled with the solvers.
+    ``scratch`` (5 rows of ``n``), ``floats`` and ``indices`` are reused by every row and step."""
     n = y.shape[1]
     for b in range(y.shape[0]):
         overlap, gap, motion = False, False, 0.0
@@ -128,12 +131,12 @@ def log_step(k: int, y: np.ndarray, v: np.ndarray, after_y: np.ndarray, after_v:
             crushed_at[b] = k + 1
         if crushed_at[b] >= 0:
             continue
-        exact = np.empty(n)
+        exact = scratch[0]
         for i in range(n):
             exact[i] = v[b, i]
         gravity(exact, g[b], dt[b])
-        solve_step(y[b], exact, inv[b], half[b], dt[b], speculative[b], swept[b], np.zeros(n), np.zeros(n),
-                   np.zeros(n), *workspace(n), np.zeros(n))
+        solve_step(y[b], exact, inv[b], half[b], dt[b], speculative[b], swept[b], scratch[1], scratch[2],
+                   scratch[3], floats, indices, scratch[4])
         top = 0.0
         for i in range(n):
             diff = abs(after_v[b, i] - exact[i])
@@ -155,7 +158,7 @@ class StepLog:
         self.rows: dict[str, RowLog] = {}
 
     def batch(self, runs: list[RunSpec]) -> OnStep:
-        log = BatchLog(len(runs))
+        log = BatchLog(len(runs), runs[0].scene.size())
         self.rows.update((r.name, RowLog(log, b)) for b, r in enumerate(runs))
         g = np.array([r.gravity for r in runs], dtype=np.float64)
         dt = np.array([r.dt for r in runs], dtype=np.float64)
@@ -165,8 +168,10 @@ class StepLog:
 
         def on_step(k: int, y: np.ndarray, v: np.ndarray, after: ColumnState) -> None:
             log.steps = k + 1
+            n = y.shape[1]  # boxes left after scene events; the scratch is sized for the most
             log_step(k, y, v, after.y, after.v, after.inv_mass, after.half, after.reach, g, dt, speculative, swept,
                      c.depth_limit, c.settle, c.reach, log.sumsq, log.values, log.measured, log.worst,
-                     log.worst_step, log.crushed_at, log.last_overlap, log.last_unheld, log.last_moving)
+                     log.worst_step, log.crushed_at, log.last_overlap, log.last_unheld, log.last_moving,
+                     log.scratch[:, :n], log.floats, log.indices)
 
         return on_step

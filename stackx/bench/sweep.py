@@ -124,7 +124,6 @@ def run_plan(case: Case, plan: SolverPlan, progress: Progress | None = None) -> 
     for variant, value, spec in runs:
         result = results.get(spec.name)
         if result is None:
-            log.rows.pop(spec.name, None)
             try:
                 result = run([spec], log, None)[spec.name]
             except RunError as exc:

@@ -12,6 +12,7 @@ from typing import Annotated, Any, ClassVar, Literal
 import numpy as np
 from pydantic import BaseModel, BeforeValidator, ConfigDict, Field
 
+from stackx.solvers.position import STAGES
 from stackx.state import ColumnState
 
 
@@ -78,8 +79,6 @@ class Solver:
     def corrections(self) -> tuple[np.ndarray, ...]:
         """Per batch row of a solver with a ``correction`` knob, the arguments of its position stage: whether
         it runs, slop, percent, stage (``stackx.solvers.position.STAGES``) and max_push (m/s, inf for none)."""
-        from stackx.solvers.position import STAGES
-
         on = np.array([p.correction is not None for p in self.params], dtype=np.bool_)
         stage = np.array([STAGES[p.correction.stage] if p.correction is not None else 0 for p in self.params],
                          dtype=np.int64)

@@ -67,8 +67,7 @@ def exact_velocities(y: np.ndarray, v: np.ndarray, inv: np.ndarray, half: np.nda
     impulse = np.zeros(n)
     out = v.copy()
     floats, indices = workspace(n)
-    prepare(y, inv, half, dt, speculative, 0.0, 0.0, np.inf, impulse, mass, target)
-    solve_column(out, inv, mass, target, impulse, floats, indices)
+    solve_step(y, out, inv, half, dt, speculative, False, mass, target, impulse, floats, indices, np.zeros(n))
     return out, impulse
 
 

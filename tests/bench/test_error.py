@@ -96,8 +96,6 @@ def test_the_error_of_a_fast_drop_includes_its_impact(tmp_path: Path) -> None:
     import subprocess
     import sys
 
-    import numpy as np
-
     from stackx.config import load
     from stackx.runner import run_experiment
     from tests.conftest import REPO
@@ -127,7 +125,6 @@ bench: {{knob: [16], timing: {{steps: 5, repeats: 1}}}}
     assert rec["error"]["rms"] == pytest.approx(want["rms"], rel=1e-9)
     assert rec["error"]["max"] == pytest.approx(want["max"], rel=1e-9)
     assert want["max"] > 1.0 and want["rms"] > 0.05  # the impact: metres per second, not microns
-    assert np.isfinite(want["rms"])
 
 
 def test_error_falls_with_iterations_and_exact_has_none(doc: dict) -> None:
