@@ -22,7 +22,7 @@ from benchmarks import plain
 from benchmarks.native import Native
 from stackx import kernel
 from stackx.config import ExperimentSpec, load
-from stackx.state import ColumnState
+from stackx.models.column.state import ColumnState
 
 TRANSCRIBED = ("pgs", "warm-start", "exact")
 """Solvers with a Python and a C transcription."""

@@ -17,12 +17,12 @@ import numpy as np
 from pydantic import Field
 
 from stackx.kernel import kernel, prange
-from stackx.monitor import observe
+from stackx.models.column.monitor import observe
 from stackx.registry import solvers
 from stackx.solvers.base import Solver
 from stackx.solvers.pgs import PGSParams, gravity, integrate_positions
 from stackx.solvers.position import correct_column, position_workspace
-from stackx.state import ColumnState
+from stackx.models.column.state import ColumnState
 
 
 class SORParams(PGSParams):

@@ -141,7 +141,8 @@ def plugins(plugins: Plugins = None, debug: Debug = False) -> None:
             table.add_column(col)
         for kind, reg in registry.ALL.items():
             for entry in reg.entries():
-                doc = (entry.plugin.__doc__ or " ").strip().splitlines()[0] if entry.plugin else "(not loaded)"
+                lines = (entry.plugin.__doc__ or "").strip().splitlines() if entry.plugin else ["(not loaded)"]
+                doc = lines[0] if lines else ""
                 table.add_row(kind, entry.name, entry.origin, doc)
         Console().print(table)
 

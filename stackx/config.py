@@ -19,14 +19,12 @@ from typing import Annotated, Any, NamedTuple
 
 from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, ValidationError, field_validator
 
-from stackx import registry
+from stackx import registry, sizing
 from stackx.bench.case import BenchSection
 from stackx.errors import ConfigError
 from stackx.limits import Limits
-from stackx.limits import check as check_limits
-from stackx.outdir import confine
-from stackx.outputs import Output, Renderer
-from stackx.scenes import Scene
+from stackx.outputs import Output, Renderer, confine
+from stackx.spec import Plan, RunSpec
 from stackx.yamlsrc import Mark, Path, Source, dotted, load_file, load_text
 
 RUN_KEYS = ("scene", "solver", "gravity", "dt", "steps")
@@ -83,36 +81,23 @@ class ExperimentModel(BaseModel):
 
 
 @dataclass
-class RunSpec:
-    """One fully validated simulation: what to step, with what, for how long."""
+class ExperimentSpec(Plan):
+    """A validated config: its plan (runs and limits), its outputs and its ``bench`` section, with the source
+    kept for later error positions."""
 
-    name: str
-    scene: Scene
-    solver_cls: type
-    solver_params: BaseModel
-    gravity: float
-    dt: float
-    steps: int
-    overrides: dict[str, Any] = field(default_factory=dict)
-
-
-@dataclass
-class ExperimentSpec:
-    """A validated config: its runs and its outputs, with the source kept for later error positions."""
-
-    file: str
-    name: str
-    description: str
-    runs: list[RunSpec]
-    outputs: list[Output]
-    source: Source
-    resolved: dict[str, Any]
-    limits: Limits = field(default_factory=Limits)
+    outputs: list[Output] = field(default_factory=list)
+    source: Source = field(default=None)  # type: ignore[assignment]
+    resolved: dict[str, Any] = field(default_factory=dict)
+    bench: BenchSection | None = None
     sets: list[str] = field(default_factory=list)  # the --set overrides it was loaded with
     plugins: str | None = None  # the local plugin folder it was loaded with, if any
 
-    def run(self, name: str) -> RunSpec:
-        return next(r for r in self.runs if r.name == name)
+    def frame_steps(self) -> set[int]:
+        """The steps whose states the outputs draw."""
+        wanted: set[int] = set()
+        for output in self.outputs:
+            wanted |= output.frame_steps(self)
+        return wanted
 
 
 # ---------------------------------------------------------------------------- dotted paths and overrides
@@ -337,10 +322,12 @@ def _fmt(value: Any) -> str:
     return text.replace("-", "m").replace(".", "p")
 
 
-def _resolve_run(name: str, src: Source, overrides: dict[str, Any], sections: dict[str, Any]) -> RunSpec:
+def _resolve_run(name: str, src: Source, overrides: dict[str, Any], sections: dict[str, Any],
+                 exp: ExperimentModel) -> RunSpec:
     """One run's spec. ``sections`` holds the scenes and solvers made so far by their section's text: runs of
-    a sweep repeat most sections, and one validated once is shared (plugins never change their params)."""
-    base = validate_model(ExperimentModel, src.data, src, ())  # the run's part of the config: see _run_part
+    a sweep repeat most sections, and one validated once is shared (plugins never change their params). A
+    run without overrides is the config's own, already validated as ``exp``."""
+    base = exp if not overrides else validate_model(ExperimentModel, src.data, src, ())  # see _run_part
     if base.scene is None or base.solver is None:
         missing = "scene" if base.scene is None else "solver"
         raise src.error((missing,), f"a run needs a {missing!r} section")
@@ -351,19 +338,35 @@ def _resolve_run(name: str, src: Source, overrides: dict[str, Any], sections: di
     if solver_key not in sections:
         sections[solver_key] = _plugin(registry.solvers, base.solver, "name", src, ("solver",))
     scene, (solver_cls, solver_params) = sections[scene_key], sections[solver_key]
+    try:
+        model = registry.models.get(scene.model)
+    except ConfigError as exc:
+        raise src.error(("scene", "name"), f"scene {scene.plugin_name!r}: {exc.message}") from None
     if scene.model not in solver_cls.models:
         raise src.error(("solver", "name"), f"solver {solver_cls.plugin_name!r} steps {', '.join(solver_cls.models)}"
-                                            f" scenes, not {scene.model!r}")
+                                            f" scenes, not {scene.model!r} (scene {scene.plugin_name!r}); "
+                                            f"solvers of {scene.model!r}: {', '.join(_stepping(scene.model))}")
     if base.steps == 0:
         raise src.error(("steps",), "a run needs 'steps' > 0")
-    from stackx.metrics import MOTION_WINDOW
-
     for event in scene.events():
-        if event.step > base.steps - MOTION_WINDOW:
+        if event.step > base.steps - model.window:
             raise src.error(("scene", *event.origin, "step"), f"step {event.step} is too late: events happen "
-                            f"before the last {MOTION_WINDOW} of the {base.steps} steps, which measure the "
+                            f"before the last {model.window} of the {base.steps} steps, which measure the "
                             "final motion of one set of boxes")
-    return RunSpec(name, scene, solver_cls, solver_params, base.gravity, base.dt, base.steps, overrides)
+    return RunSpec(name, scene, solver_cls, solver_params, base.gravity, base.dt, base.steps, overrides, model)
+
+
+def _stepping(model: str) -> list[str]:
+    """Names of the built-in, installed and local solvers that step ``model`` (installed ones are loaded)."""
+    names = []
+    for entry in registry.solvers.entries():
+        try:
+            cls = registry.solvers.get(entry.name)
+        except ConfigError:
+            continue
+        if model in getattr(cls, "models", ()):
+            names.append(entry.name)
+    return names or ["none"]
 
 
 def build(src: Source) -> ExperimentSpec:
@@ -374,7 +377,7 @@ def build(src: Source) -> ExperimentSpec:
     runs: list[RunSpec] = []
     if exp.scene is not None or exp.solver is not None or exp.runs or exp.sweep:
         sections: dict[str, Any] = {}
-        runs = [_resolve_run(name, variant, sets, sections) for name, variant, sets in _variants(exp, src)]
+        runs = [_resolve_run(name, variant, sets, sections, exp) for name, variant, sets in _variants(exp, src)]
     outputs: list[Output] = []
     for i, section in enumerate(exp.outputs):
         kinds = [k for k in ("sink", "render") if k in section]
@@ -383,21 +386,30 @@ def build(src: Source) -> ExperimentSpec:
         reg = registry.sinks if kinds[0] == "sink" else registry.renderers
         cls, params = _plugin(reg, section, kinds[0], src, ("outputs", i))
         outputs.append(cls(params))
-    spec = ExperimentSpec(src.file, FsPath(src.file).stem, exp.description, runs, outputs, src,
-                          resolved=_resolved(exp, runs, outputs), limits=exp.limits)
+    spec = ExperimentSpec(src.file, FsPath(src.file).stem, exp.description, runs, exp.limits, outputs=outputs,
+                          source=src, resolved=_resolved(exp, runs, outputs), bench=exp.bench)
     written: dict[str, int] = {}
     for i, output in enumerate(outputs):
         prefix: Path = ("outputs", i)
         if output.needs_runs and not runs:
             raise src.error(prefix, f"{output.plugin_name!r} needs a simulation: add scene, solver and steps")
+        other = next((r for r in runs if output.models is not None and r.scene.model not in output.models), None)
+        if other is not None:
+            raise src.error(prefix + (_kind(output),), f"{output.plugin_name!r} draws {', '.join(output.models or ())}"
+                            f" scenes, not {other.scene.model!r} (run {other.name!r})")
         output.check(spec, lambda path, msg, prefix=prefix: src.error(prefix + path, msg))
         confine(output, lambda path, msg, prefix=prefix: src.error(prefix + path, msg))
         for name in output.files():
             if name in written:
                 raise src.error(prefix, f"{name!r} is also written by outputs[{written[name]}]")
             written[name] = i
-    check_limits(spec, exp.limits)
+    sizing.check(spec, lambda path, msg: src.error(path, msg))
     return spec
+
+
+def _kind(output: Output) -> str:
+    """The key that names an output's plugin: ``render`` or ``sink``."""
+    return "render" if isinstance(output, Renderer) else "sink"
 
 
 def _dump(params: BaseModel) -> dict[str, Any]:
@@ -413,7 +425,7 @@ def _resolved(exp: ExperimentModel, runs: list[RunSpec], outputs: list[Output]) 
         "runs": [{"name": r.name, "scene": {"name": r.scene.plugin_name, **_dump(r.scene.params)},
                   "solver": {"name": r.solver_cls.plugin_name, **_dump(r.solver_params)},
                   "gravity": r.gravity, "dt": r.dt, "steps": r.steps} for r in runs],
-        "outputs": [{("render" if isinstance(o, Renderer) else "sink"): o.plugin_name,
+        "outputs": [{_kind(o): o.plugin_name,
                      **_dump(o.params)} for o in outputs],
         "limits": _dump(exp.limits),
     }

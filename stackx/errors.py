@@ -6,6 +6,11 @@ key. ``RunError`` is a simulation or plugin failing while running (exit code 1):
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
+Fail = Callable[[tuple[str | int, ...], str], "ConfigError"]
+"""``fail(key_path, message)``: the error to raise for a config value, located by whoever knows the file."""
+
 
 class StackxError(Exception):
     """Base of every error stackx reports as a short message."""
@@ -47,3 +52,9 @@ class BlowUp(RunError):
     def __init__(self, message: str, report: dict[str, object]) -> None:
         super().__init__(message)
         self.report = report
+
+
+def first_line(exc: BaseException) -> str:
+    """``Type: first line of the message``: plugin errors (numba's are pages long) stay one line."""
+    lines = [ln.strip() for ln in str(exc).splitlines() if ln.strip()]
+    return f"{type(exc).__name__}: {lines[0]}" if lines else type(exc).__name__

@@ -9,9 +9,7 @@ from __future__ import annotations
 
 import ast
 from collections.abc import Mapping
-from typing import Any
-
-from stackx.metrics import SCALARS, VECTORS
+from typing import Any, NamedTuple
 
 FUNCTIONS = {"min": min, "max": max, "abs": abs}
 OPS = {ast.Add: lambda a, b: a + b, ast.Sub: lambda a, b: a - b, ast.Mult: lambda a, b: a * b,
@@ -22,7 +20,15 @@ class ExprError(ValueError):
     pass
 
 
-def _measure(node: ast.AST, runs: Mapping[str, int], single: str | None) -> tuple[str, str]:
+class Known(NamedTuple):
+    """What an expression may name of one run: its bodies at the end and its model's measures."""
+
+    size: int
+    scalars: Mapping[str, str]
+    vectors: Mapping[str, str]
+
+
+def _measure(node: ast.AST, runs: Mapping[str, Known], single: str | None) -> tuple[str, str]:
     """(run name, measure name) named by ``node`` (a Name or run.Attribute)."""
     if isinstance(node, ast.Attribute) and isinstance(node.value, ast.Name):
         run, name = node.value.id, node.attr
@@ -34,13 +40,14 @@ def _measure(node: ast.AST, runs: Mapping[str, int], single: str | None) -> tupl
         run, name = single, node.id
     else:
         raise ExprError("expected a measure such as max_depth or y[0]")
-    if name not in SCALARS and name not in VECTORS:
-        raise ExprError(f"unknown measure {name!r}; measures: {', '.join([*SCALARS, *VECTORS])}")
+    known = runs[run]
+    if name not in known.scalars and name not in known.vectors:
+        raise ExprError(f"unknown measure {name!r}; measures: {', '.join([*known.scalars, *known.vectors])}")
     return run, name
 
 
-def evaluate(text: str, runs: Mapping[str, int], measures: Mapping[str, Mapping[str, Any]] | None = None) -> float:
-    """Check ``text`` against ``runs`` (name -> number of boxes); with ``measures`` also compute it."""
+def evaluate(text: str, runs: Mapping[str, Known], measures: Mapping[str, Mapping[str, Any]] | None = None) -> float:
+    """Check ``text`` against ``runs`` (name -> what it has); with ``measures`` also compute it."""
     try:
         tree = ast.parse(text.strip(), mode="eval")
     except SyntaxError:
@@ -63,7 +70,7 @@ def evaluate(text: str, runs: Mapping[str, int], measures: Mapping[str, Mapping[
             return float(FUNCTIONS[node.func.id](*args)) if len(args) > 1 or node.func.id == "abs" else args[0]
         if isinstance(node, ast.Subscript):
             run, name = _measure(node.value, runs, single)
-            if name not in VECTORS:
+            if name not in runs[run].vectors:
                 raise ExprError(f"{name!r} is a number, not a list: drop the [index]")
             index = node.slice
             sign = 1
@@ -71,13 +78,13 @@ def evaluate(text: str, runs: Mapping[str, int], measures: Mapping[str, Mapping[
                 sign, index = -1, index.operand
             if not (isinstance(index, ast.Constant) and type(index.value) is int):
                 raise ExprError("an index is a whole number, e.g. y[0] or y[-1]")
-            i, n = sign * index.value, runs[run]
+            i, n = sign * index.value, runs[run].size
             if not -n <= i < n:
                 raise ExprError(f"index {i} out of range: {name} has {n} entries (0..{n - 1})")
             return float(measures[run][name][i]) if measures is not None else 0.0
         if isinstance(node, (ast.Name, ast.Attribute)):
             run, name = _measure(node, runs, single)
-            if name in VECTORS:
+            if name in runs[run].vectors:
                 raise ExprError(f"{name!r} is a list: pick one entry, e.g. {name}[0]")
             return float(measures[run][name]) if measures is not None else 0.0
         raise ExprError(f"not allowed in a value expression: {ast.unparse(node)!r} "

@@ -83,6 +83,7 @@ def plugins_used(spec: Any, folder: Path) -> dict[str, dict[str, str]]:
 
     used: dict[str, Any] = {}
     for run in spec.runs:
+        used[f"model:{run.model.plugin_name}"] = run.model
         used[f"scene:{run.scene.plugin_name}"] = run.scene
         used[f"solver:{run.solver_cls.plugin_name}"] = run.solver_cls
     for output in spec.outputs:

@@ -6,9 +6,9 @@ write and the rename can leave its temporary file behind: it is named ``.NAME.XX
 that no artifact may have (``safe_relative`` refuses names starting with a dot), so it is never taken for an
 artifact, never listed in the manifest, and can be deleted at any time.
 
-Paths are confined to the folder: absolute paths, ``..``, hidden names and links on the way are refused.
-``confine`` checks an output's paths before anything runs (at config load, and against the real folder
-before stepping), so a bad path fails with the config's ``file:line:col``, not after a long run.
+Paths are confined to the folder: absolute paths, ``..``, hidden names and links on the way are refused
+(``stackx.outputs.confine`` checks an output's paths this way before anything runs, so a bad path fails with
+the config's ``file:line:col``, not after a long run).
 """
 
 from __future__ import annotations
@@ -16,12 +16,8 @@ from __future__ import annotations
 import os
 import tempfile
 from pathlib import Path, PurePosixPath
-from typing import TYPE_CHECKING
 
 from stackx.errors import ConfigError, RunError
-
-if TYPE_CHECKING:
-    from stackx.outputs import Fail, Output
 
 TEMP_SUFFIX = ".tmp"
 MANIFEST = "manifest.json"  # what the folder holds and how it was made (see stackx.manifest)
@@ -60,22 +56,6 @@ def check_place(root: Path, name: str) -> None:
         last = i == len(parts) - 1
         if here.exists() and (here.is_dir() if last else not here.is_dir()):
             raise ValueError(f"{name!r}: {here} is {'a folder' if last else 'a file, not a folder'}")
-
-
-def _key(output: Output, name: str) -> str:
-    """The params key that names file ``name`` (e.g. ``player``), for the error position; else ``path``."""
-    return next((key for key, value in output.params if value == name), "path")
-
-
-def confine(output: Output, fail: Fail, root: Path | None = None) -> None:
-    """Refuse every path of ``output`` that leaves the folder (and, given ``root``, that meets a link there)."""
-    for name in output.files():
-        try:
-            safe_relative(name)
-            if root is not None:
-                check_place(root, name)
-        except ValueError as exc:
-            raise fail((_key(output, name),), str(exc)) from None
 
 
 class OutputDir:

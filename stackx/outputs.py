@@ -3,25 +3,24 @@
 An output is configured once per experiment. Before anything runs, ``check`` validates what it refers to
 (run names, measures, box indices) and ``frame_steps`` says which intermediate states it needs recorded;
 afterwards ``write`` turns the finished results into files through the staged output folder. Outputs never
-step physics.
+step physics. A renderer draws the worlds of the models it names in ``models``; a sink writes measures of any
+model.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from pathlib import Path
 from typing import TYPE_CHECKING, ClassVar
 
 from pydantic import BaseModel
 
-from stackx.yamlsrc import Path
+from stackx.errors import Fail
+from stackx.outdir import check_place, safe_relative
 
 if TYPE_CHECKING:
-    from stackx.config import ExperimentSpec
-    from stackx.errors import ConfigError
     from stackx.outdir import OutputDir
     from stackx.results import ExperimentResult
-
-Fail = Callable[[Path, str], "ConfigError"]
+    from stackx.spec import Plan
 
 
 class Output:
@@ -30,6 +29,7 @@ class Output:
     Params: ClassVar[type[BaseModel]]
     plugin_name: ClassVar[str]
     needs_runs: ClassVar[bool] = True
+    models: ClassVar[tuple[str, ...] | None] = None  # the models whose states it reads; None: any model
 
     def __init__(self, params: BaseModel) -> None:
         self.params = params
@@ -38,10 +38,10 @@ class Output:
         """Paths, relative to the output folder, that ``write`` creates."""
         return [self.params.path]  # type: ignore[attr-defined]
 
-    def check(self, spec: ExperimentSpec, fail: Fail) -> None:
+    def check(self, spec: Plan, fail: Fail) -> None:
         """Refuse, before any stepping, what cannot be produced (``raise fail(key_path, message)``)."""
 
-    def frame_steps(self, spec: ExperimentSpec) -> set[int]:
+    def frame_steps(self, spec: Plan) -> set[int]:
         """Steps whose state (before that step) must be recorded for ``write``."""
         return set()
 
@@ -55,3 +55,20 @@ class Sink(Output):
 
 class Renderer(Output):
     """Draws states or pages."""
+
+
+def _key(output: Output, name: str) -> str:
+    """The params key that names file ``name`` (e.g. ``player``), for the error position; else ``path``."""
+    return next((key for key, value in output.params if value == name), "path")
+
+
+def confine(output: Output, fail: Fail, root: Path | None = None) -> None:
+    """Refuse every path of ``output`` that leaves the folder (and, given ``root``, that meets a link there)."""
+    for name in output.files():
+        try:
+            safe_relative(name)
+            if root is not None:
+                check_place(root, name)
+        except ValueError as exc:
+            raise fail((_key(output, name),), str(exc)) from None
+

@@ -1,4 +1,4 @@
-"""One registry per plugin kind: solvers, renderers, sinks and scenes.
+"""One registry per plugin kind: models, scenes, solvers, renderers and sinks.
 
 A plugin comes from one of three places, and the registry remembers which so that ``stackx plugins`` and
 every error can say so:
@@ -36,6 +36,7 @@ from stackx.errors import ConfigError
 T = TypeVar("T")
 
 BUILTIN_MODULES = {
+    "model": ["stackx.models.column.model"],
     "scene": ["stackx.scenes.column"],
     "solver": ["stackx.solvers.pgs", "stackx.solvers.warm_start", "stackx.solvers.exact",
                "stackx.solvers.baumgarte", "stackx.solvers.split_impulse",
@@ -154,16 +155,18 @@ class Registry(Generic[T]):
         return names
 
 
+models: Registry[Any] = Registry("model")
 scenes: Registry[Any] = Registry("scene")
 solvers: Registry[Any] = Registry("solver")
 renderers: Registry[Any] = Registry("renderer")
 sinks: Registry[Any] = Registry("sink")
-ALL = {"scene": scenes, "solver": solvers, "renderer": renderers, "sink": sinks}
+ALL = {"model": models, "scene": scenes, "solver": solvers, "renderer": renderers, "sink": sinks}
 
 _loaded_files: set[Path] = set()
 
 # what each kind's plugins must be: (module, base class, methods the base leaves to the plugin)
 CONTRACTS = {
+    "model": ("stackx.models", "Model", ("measure", "state_measures", "offender", "motion")),
     "solver": ("stackx.solvers.base", "Solver", ("advance",)),
     "scene": ("stackx.scenes", "Scene", ("build",)),
     "renderer": ("stackx.outputs", "Renderer", ("write",)),

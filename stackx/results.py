@@ -4,19 +4,19 @@ from __future__ import annotations
 
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field
+from typing import Any
 
-from stackx.config import ExperimentSpec, RunSpec
-from stackx.state import ColumnState
+from stackx.spec import Plan, RunSpec
 
 
-class RunFrames(Mapping[int, ColumnState]):
+class RunFrames(Mapping[int, Any]):
     """One run's recorded states: row ``b`` of each recorded state of its batch, made when looked up (a sweep
     records some 60 states of thousands of rows, and outputs look at a few of them, of one run)."""
 
-    def __init__(self, batch: Mapping[int, ColumnState], b: int) -> None:
+    def __init__(self, batch: Mapping[int, Any], b: int) -> None:
         self.batch, self.b = batch, b
 
-    def __getitem__(self, step: int) -> ColumnState:
+    def __getitem__(self, step: int) -> Any:
         return self.batch[step].row(self.b)
 
     def __iter__(self) -> Iterator[int]:
@@ -28,15 +28,16 @@ class RunFrames(Mapping[int, ColumnState]):
 
 @dataclass
 class RunResult:
-    """One run's final state, the states recorded on the way, and its measures.
+    """One run's final state, the states recorded on the way (states of the run's model, each a batch of
+    one), and its measures.
 
     ``frames[k]`` is the state before step ``k`` (``frames[0]`` the initial state, ``frames[steps]`` the
     final one). ``wall_seconds`` is the stepping time charged to this run (its batch's time divided evenly).
     """
 
     spec: RunSpec
-    final: ColumnState
-    frames: Mapping[int, ColumnState]
+    final: Any
+    frames: Mapping[int, Any]
     measures: dict[str, float | list[float]]
     wall_seconds: float = 0.0
 
@@ -52,7 +53,9 @@ class RunResult:
 
 @dataclass
 class ExperimentResult:
-    spec: ExperimentSpec
+    """The runs of one plan, finished, in the plan's order."""
+
+    spec: Plan
     runs: list[RunResult] = field(default_factory=list)
 
     def run(self, name: str) -> RunResult:

@@ -1,11 +1,12 @@
 """Stepping: turn an experiment's runs into results.
 
-Runs of one experiment with the same solver and the same number of boxes and steps form one batch and are
-stepped together (the solver gets one params object per row). The state is recorded before the steps
-that outputs asked for and over the final motion window; between those points the solver advances many
-steps per call. A caller that must see every step (the bench measures each step against the exact solve)
-passes a ``StepObserver``: the batch then advances one step per call, and the observer sees the heights and
-velocities before each step and the state after it.
+Runs of one experiment with the same model, solver, number of boxes and steps form one batch and are stepped
+together (the solver gets one params object per row). The state is recorded before the steps that the
+plan's readers ask for (``Plan.frame_steps``: the outputs' frames) and over the model's final measuring
+window; between those points the solver advances many steps per call. The model turns the recorded states
+into measures. A caller that must see every step (the bench measures each step against a reference solve)
+passes a ``StepObserver``: the batch then advances one step per call, and the observer sees the state before
+each step and after it.
 """
 
 from __future__ import annotations
@@ -18,19 +19,17 @@ from typing import Any, Protocol
 import numpy as np
 
 from stackx import kernel
-from stackx.config import ExperimentSpec, RunSpec
-from stackx.errors import BlowUp, RunError
-from stackx.metrics import measure, motion_steps
+from stackx.errors import BlowUp, RunError, first_line
 from stackx.results import ExperimentResult, RunFrames, RunResult
-from stackx.state import ColumnState
-from stackx.watch import Watch, add_finished, first_line
+from stackx.spec import Plan, RunSpec, record_steps
+from stackx.watch import Watch, add_finished
 
 CHUNK = 500  # most steps per solver call: bounds how often progress is reported and blow-ups are caught
 
 Progress = Callable[[int], None]
-OnStep = Callable[[int, np.ndarray, np.ndarray, ColumnState], None]
-"""``(k, y, v, after)``: step ``k`` of a batch went from heights ``y`` and velocities ``v`` (batch arrays, before
-the step) to the state ``after`` (before any scene event at ``k + 1``). Called after every step."""
+OnStep = Callable[[int, Any, Any], None]
+"""``(k, before, after)``: step ``k`` of a batch went from the state ``before`` (a copy) to the state ``after``
+(before any scene event at ``k + 1``). Called after every step."""
 
 
 class StepObserver(Protocol):
@@ -39,17 +38,8 @@ class StepObserver(Protocol):
     def batch(self, runs: list[RunSpec]) -> OnStep: ...
 
 
-def record_steps(spec: ExperimentSpec, run: RunSpec, extra: set[int] | None = None) -> list[int]:
-    """Steps before which the state is kept: what outputs need, the scene's events, the motion window, the end,
-    and the ``extra`` steps a caller asked for."""
-    wanted = set(motion_steps(run.steps)) | {e.step for e in run.scene.events()} | (extra or set())
-    for output in spec.outputs:
-        wanted |= output.frame_steps(spec)
-    return sorted(k for k in wanted if 0 <= k <= run.steps)
-
-
 def _batch_key(run: RunSpec) -> tuple[object, ...]:
-    return (run.solver_cls.plugin_name, run.scene.size(), run.steps, tuple(map(repr, run.scene.events())))
+    return (run.model.plugin_name, run.solver_cls.plugin_name, run.scene.size(), run.steps, tuple(map(repr, run.scene.events())))
 
 
 def _work(runs: list[RunSpec]) -> int:
@@ -57,18 +47,19 @@ def _work(runs: list[RunSpec]) -> int:
     return len(runs) * runs[0].scene.size() * runs[0].steps
 
 
-def run_experiment(spec: ExperimentSpec, progress: Progress | None = None,
+def run_experiment(spec: Plan, progress: Progress | None = None,
                    observer: StepObserver | None = None, record: set[int] | None = None) -> ExperimentResult:
     """Step every run of ``spec`` and measure it; ``observer`` sees every step of every batch, and the states
-    before the steps in ``record`` are kept beside those the outputs ask for."""
+    before the steps in ``record`` are kept beside those the plan's readers ask for (``spec.frame_steps()``)."""
     result = ExperimentResult(spec)
+    wanted = spec.frame_steps() | (record or set())
     by_name: dict[str, RunResult] = {}
     ordered = sorted(spec.runs, key=_batch_key)
     try:
         for _, group in groupby(ordered, key=_batch_key):
             batch = list(group)
             with kernel.compiled(kernel.worth_compiling(_work(batch))):
-                for r in _run_batch(spec, batch, progress, observer, record):
+                for r in _run_batch(spec, batch, progress, observer, wanted):
                     by_name[r.name] = r
     except BlowUp as exc:
         add_finished(exc.report, by_name, [r.name for r in spec.runs])
@@ -77,18 +68,19 @@ def run_experiment(spec: ExperimentSpec, progress: Progress | None = None,
     return result
 
 
-def _run_batch(spec: ExperimentSpec, runs: list[RunSpec], progress: Progress | None,
-               observer: StepObserver | None, record: set[int] | None) -> list[RunResult]:
+def _run_batch(spec: Plan, runs: list[RunSpec], progress: Progress | None,
+               observer: StepObserver | None, wanted: set[int]) -> list[RunResult]:
+    model = runs[0].model
     state, solver = _setup(spec, runs)
     on_step = observer.batch(runs) if observer is not None else None
-    watch = Watch(spec.file, [r.name for r in runs], solver, runs[0].steps, spec.limits.max_speed)
+    watch = Watch(spec.file, [r.name for r in runs], solver, model, runs[0].steps, spec.limits.max_speed)
     watch.start(state)
     steps = runs[0].steps
     events = {e.step: e for e in runs[0].scene.events()}  # same for the whole batch (see _batch_key)
-    frames: dict[int, ColumnState] = {}
+    frames: dict[int, Any] = {}
     wall = 0.0
     done = 0
-    for stop in record_steps(spec, runs[0], record):
+    for stop in record_steps(runs[0], wanted):
         while done < stop:
             n = min(CHUNK, stop - done)
             watch.save(state)
@@ -98,11 +90,11 @@ def _run_batch(spec: ExperimentSpec, runs: list[RunSpec], progress: Progress | N
                 wall += time.perf_counter() - t0
             else:
                 for k in range(done, done + n):
-                    y, v = state.y.copy(), state.v.copy()
+                    before = state.copy()
                     t0 = time.perf_counter()
                     watch.advance(state, k, 1)
                     wall += time.perf_counter() - t0
-                    on_step(k, y, v, state)
+                    on_step(k, before, state)
             watch.check(state, done, n)
             done += n
             if progress:
@@ -110,18 +102,18 @@ def _run_batch(spec: ExperimentSpec, runs: list[RunSpec], progress: Progress | N
         if stop in events:
             events[stop].apply(state, solver)
         frames[stop] = state.copy()
-    measures = measure(frames, steps, np.array([r.dt for r in runs]))
+    measures = model.measure(frames, steps, np.array([r.dt for r in runs]))
     return [RunResult(run, frames[steps].row(b), RunFrames(frames, b), measures[b], wall / len(runs))
             for b, run in enumerate(runs)]
 
 
-def _setup(spec: ExperimentSpec, runs: list[RunSpec]) -> tuple[ColumnState, Any]:
+def _setup(spec: Plan, runs: list[RunSpec]) -> tuple[Any, Any]:
     """The batch's initial state and its solver; a scene or solver plugin failing here is named with its file."""
     plugin = runs[0].scene
     try:
         scenes = {id(r.scene): r.scene for r in runs}  # runs with the same scene section share one scene
         starts = {key: scene.build() for key, scene in scenes.items()}
-        state = ColumnState.concat([starts[id(r.scene)] for r in runs])
+        state = runs[0].model.concat([starts[id(r.scene)] for r in runs])
         plugin = runs[0].solver_cls
         solver = runs[0].solver_cls([r.solver_params for r in runs], np.array([r.gravity for r in runs]),
                                     np.array([r.dt for r in runs]))

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
+from typing import Any
 
 from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
@@ -18,11 +19,11 @@ from rich.table import Table
 
 from stackx import manifest
 from stackx.config import ExperimentSpec
-from stackx.errors import BlowUp, ConfigError, RunError
-from stackx.outdir import TIMING, OutputDir, confine, failed_file, write_json
+from stackx.errors import BlowUp, ConfigError, RunError, first_line
+from stackx.outdir import TIMING, OutputDir, failed_file, write_json
+from stackx.outputs import confine
 from stackx.results import ExperimentResult
 from stackx.runner import run_experiment
-from stackx.watch import first_line
 
 
 def run_all(specs: list[ExperimentSpec], out: Path, quiet: bool = False) -> list[ExperimentResult]:
@@ -41,7 +42,7 @@ def run_all(specs: list[ExperimentSpec], out: Path, quiet: bool = False) -> list
                     kept = out / failed_file(spec.name)
                     write_json(kept, {**exc.report, "resolved": spec.resolved})
                     raise BlowUp(f"{exc}; partial measures in {kept}", exc.report) from None
-                _write(result, out)
+                _write(spec, result, out)
                 bar.update(task, completed=total or 1)
                 results.append(result)
     finally:
@@ -62,27 +63,27 @@ def preflight(specs: list[ExperimentSpec], out: Path) -> None:
     manifest.read(out)
 
 
-def stage(result: ExperimentResult, out: Path) -> OutputDir:
+def stage(spec: ExperimentSpec, result: ExperimentResult, out: Path) -> OutputDir:
     """Every output of a finished experiment, held in memory; a plugin failing is named with its file."""
     staged = OutputDir(out)
-    for output in result.spec.outputs:
+    for output in spec.outputs:
         try:
             output.write(result, staged)
         except RunError:
             raise
         except Exception as exc:
-            raise RunError(f"{result.spec.file}: output {output.plugin_name!r} "
+            raise RunError(f"{spec.file}: output {output.plugin_name!r} "
                            f"({getattr(output, 'plugin_origin', '?')}) failed: {first_line(exc)}") from exc
     return staged
 
 
-def _write(result: ExperimentResult, out: Path) -> None:
+def _write(spec: ExperimentSpec, result: ExperimentResult, out: Path) -> None:
     """Write an experiment's files, then its manifest entry; drop a failed-run file it leaves behind."""
-    staged = stage(result, out)
+    staged = stage(spec, result, out)
     staged.commit()
     if staged.staged:
-        manifest.record(out, result.spec, staged.staged)
-    (out / failed_file(result.spec.name)).unlink(missing_ok=True)
+        manifest.record(out, spec, staged.staged)
+    (out / failed_file(spec.name)).unlink(missing_ok=True)
 
 
 def _write_timing(results: list[ExperimentResult], out: Path) -> None:
@@ -112,7 +113,13 @@ def summary(results: list[ExperimentResult], out: Path) -> Table:
             table.add_row(result.spec.name, "-", "-", "-", "-", "-", "-", "-", "-")
         for r in result.runs:
             m = r.measures
-            table.add_row(result.spec.name, r.name, r.spec.solver_cls.plugin_name, str(r.final.boxes),
-                          str(r.spec.steps), f"{m['max_depth']:.5f}", f"{m['peak_depth']:.5f}",
-                          f"{m['rms_motion']:.2e}", f"{r.us_per_step:.1f}")
+            table.add_row(result.spec.name, r.name, r.spec.solver_cls.plugin_name, str(r.spec.scene.final_size()),
+                          str(r.spec.steps), _number(m, "max_depth", ".5f"), _number(m, "peak_depth", ".5f"),
+                          _number(m, "rms_motion", ".2e"), f"{r.us_per_step:.1f}")
     return table
+
+
+def _number(measures: dict[str, Any], name: str, form: str) -> str:
+    """A measure as the table prints it; "-" for one the run's model does not measure."""
+    value = measures.get(name)
+    return "-" if value is None else format(value, form)

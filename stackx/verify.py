@@ -62,7 +62,7 @@ def verify_experiment(folder: Path, name: str, listed: dict[str, Any], say: Say)
     plugins = manifest.located(listed["plugins"], folder) if listed.get("plugins") else None
     try:
         spec = load(str(config), listed.get("sets") or None, plugins)
-        files = stage(run_experiment(spec), folder).staged
+        files = stage(spec, run_experiment(spec), folder).staged
     except StackxError as exc:
         say(f"DIFF {name}: the re-run failed: {exc}")
         return 1

@@ -1,9 +1,9 @@
 """Watching a batch while it steps: plugin failures, broken state, and blow-ups named to the exact step.
 
 Solvers advance many steps per call (compiled loops do not come back to Python every step), so the state is
-checked after each call: every array must keep its shape and type, every height and velocity must be finite
-and no box may move faster than ``limits.max_speed``. When a check fails, the call is replayed one step at
-a time from a copy taken before it (the state and the solver's array attributes, where memory such as
+checked after each call: every array must keep its shape and type, and the model's health check
+(``Model.offender``) must find no box that is not finite or moves faster than ``limits.max_speed``. When a
+check fails, the call is replayed one step at a time from a copy taken before it (the state and the solver's array attributes, where memory such as
 warm-start impulses lives), and the first step whose state fails is the one reported, with its run, box and
 solver. Stepping is deterministic, so the replay meets the same numbers; a solver that is not (or keeps
 memory outside numpy arrays) is reported with the range of steps instead. "At step k" means the state after
@@ -22,29 +22,7 @@ from typing import Any
 
 import numpy as np
 
-from stackx.errors import BlowUp, RunError
-from stackx.metrics import state_measures
-from stackx.state import ColumnState
-
-
-def first_line(exc: BaseException) -> str:
-    """``Type: first line of the message``: plugin errors (numba's are pages long) stay one line."""
-    lines = [ln.strip() for ln in str(exc).splitlines() if ln.strip()]
-    return f"{type(exc).__name__}: {lines[0]}" if lines else type(exc).__name__
-
-
-def offender(state: ColumnState, max_speed: float) -> tuple[int, int, str, str] | None:
-    """``(row, box, cause, detail)`` of the first bad box (rows, then boxes bottom-up), or None."""
-    finite = np.isfinite(state.y) & np.isfinite(state.v)
-    fast = np.abs(np.where(finite, state.v, 0.0)) > max_speed
-    bad = ~finite | fast
-    if not bad.any():
-        return None
-    row, box = (int(i) for i in np.argwhere(bad)[0])
-    y, v = float(state.y[row, box]), float(state.v[row, box])
-    if not finite[row, box]:
-        return row, box, "non-finite", f"is not finite (y = {y}, v = {v})"
-    return row, box, "speed", f"moves at {abs(v):.4g} m/s, over limits.max_speed = {max_speed:g} m/s"
+from stackx.errors import BlowUp, RunError, first_line
 
 
 def snapshot(solver: Any) -> Any | None:
@@ -75,25 +53,26 @@ def _plain(values: Any) -> Any:
 class Watch:
     """Checks one batch of runs (``names``, one per row) stepped by ``solver``."""
 
-    def __init__(self, file: str, names: list[str], solver: Any, steps: int, max_speed: float) -> None:
+    def __init__(self, file: str, names: list[str], solver: Any, model: Any, steps: int, max_speed: float) -> None:
         self.file, self.names, self.solver, self.steps, self.max_speed = file, names, solver, steps, max_speed
+        self.model = model
         self.origin = getattr(solver, "plugin_origin", "unknown source")
         self.where = f"solver {solver.plugin_name!r} ({self.origin})"
-        self._saved: tuple[ColumnState, Any] | None = None
+        self._saved: tuple[Any, Any] | None = None
 
-    def start(self, state: ColumnState) -> None:
+    def start(self, state: Any) -> None:
         """Refuse a batch that is already out of bounds before its first step."""
-        hit = offender(state, self.max_speed)
+        hit = self.model.offender(state, self.max_speed)
         if hit:
             self._fail(0, hit, state, state)
 
-    def save(self, state: ColumnState) -> None:
+    def save(self, state: Any) -> None:
         """Keep a copy of the state and the solver's memory, to replay the next call step by step."""
         self._saved = (state.copy(), snapshot(self.solver))
 
-    def advance(self, state: ColumnState, done: int, n: int) -> None:
+    def advance(self, state: Any, done: int, n: int) -> None:
         """``solver.advance(state, n)``, turning its failures and broken results into ``RunError``."""
-        shapes = {k: (getattr(state, k).shape, getattr(state, k).dtype) for k in ColumnState.FIELDS}
+        shapes = {k: (getattr(state, k).shape, getattr(state, k).dtype) for k in type(state).FIELDS}
         try:
             returned = self.solver.advance(state, n)
         except Exception as exc:
@@ -112,9 +91,9 @@ class Watch:
         """The steps of a call and its runs, for a message (made only then: a sweep has thousands of runs)."""
         return f"steps {done + 1}..{done + n} of run(s) {', '.join(map(repr, self.names))}"
 
-    def check(self, state: ColumnState, done: int, n: int) -> None:
+    def check(self, state: Any, done: int, n: int) -> None:
         """After ``advance``: find the first bad step of the call, if the state went bad, and raise."""
-        if offender(state, self.max_speed) is None:
+        if self.model.offender(state, self.max_speed) is None:
             return
         assert self._saved is not None
         before, twin = self._saved
@@ -126,14 +105,14 @@ class Watch:
                     twin.advance(replay, 1)
                 except Exception:
                     break
-                hit = offender(replay, self.max_speed)
+                hit = self.model.offender(replay, self.max_speed)
                 if hit:
                     self._fail(done + j + 1, hit, previous, replay)
-        hit = offender(state, self.max_speed)
+        hit = self.model.offender(state, self.max_speed)
         assert hit is not None
         self._fail(None, hit, before, state, (done, done + n))
 
-    def _fail(self, step: int | None, hit: tuple[int, int, str, str], good: ColumnState, bad: ColumnState,
+    def _fail(self, step: int | None, hit: tuple[int, int, str, str], good: Any, bad: Any,
               span: tuple[int, int] | None = None) -> None:
         row, box, cause, detail = hit
         if step is None:
@@ -157,8 +136,8 @@ class Watch:
             "max_speed": self.max_speed,
             "runs": {name: {"status": "blew up" if b == row else "stopped with its batch",
                             "steps_done": last_good,
-                            "measures": _plain(state_measures(good.row(b))),
-                            "after_failing_step": _plain({"y": bad.y[b].tolist(), "v": bad.v[b].tolist()})}
+                            "measures": _plain(self.model.state_measures(good.row(b))),
+                            "after_failing_step": _plain(self.model.motion(bad, b))}
                      for b, name in enumerate(self.names)},
         }
         raise BlowUp(message, report)

@@ -14,7 +14,7 @@ from typing import Any
 
 from stackx.bench.plan import BASELINE, CASE, Case
 from stackx.bench.sweep import Record
-from stackx.metrics import MOTION_WINDOW
+from stackx.models.column.measures import MOTION_WINDOW
 
 COMPARED = ("rms_motion", "top_p2p", "top_reversals", "top_rise", "max_depth", "launch")
 

@@ -11,7 +11,6 @@ from collections.abc import Iterable
 from dataclasses import dataclass
 from typing import Any
 
-from stackx.bench.accuracy import REFERENCE_SOLVER
 from stackx.bench.plan import CASE
 from stackx.bench.sweep import Record
 
@@ -99,7 +98,7 @@ def measured(records: Iterable[Record]) -> list[Record]:
     """Records to compare on speed and error: timed, with an error against the exact solver, neither blown up
     nor crushed, and not the reference itself."""
     return [r for r in case_records(records) if r.us_per_step is not None and r.error.get("rms") is not None
-            and not r.broke and r.solver != REFERENCE_SOLVER]
+            and not r.broke and not r.reference]
 
 
 def pareto(records: Iterable[Record]) -> list[Record]:

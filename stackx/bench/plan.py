@@ -162,7 +162,7 @@ def load_case(spec: ExperimentSpec, names: list[str] | None) -> tuple[Case, dict
         raise ConfigError(f"a bench case has one run (scene, solver, dt, steps); this config has "
                           f"{len(spec.runs)}: drop 'runs'/'sweep'", file=spec.file)
     run = spec.runs[0]
-    section = BenchSection.model_validate(spec.source.data.get("bench") or {})
+    section = spec.bench or BenchSection()
     for name in section.knobs:
         try:
             registry.solvers.get(name)

@@ -19,15 +19,13 @@ from pathlib import Path
 from typing import Any
 
 from stackx import __version__, manifest
-from stackx.bench.accuracy import REFERENCE_SOLVER
 from stackx.bench.claims import finding
 from stackx.bench.compare import TARGETS, Cell, case_records, equal_cost, failing, label, matrix, pareto
-from stackx.bench.measures import STILL
 from stackx.bench.plan import Case
 from stackx.bench.plots import speed_error_png
 from stackx.bench.sweep import Record
 from stackx.criteria import NAMES
-from stackx.metrics import MOTION_WINDOW
+from stackx.models.column.measures import MOTION_WINDOW, STILL
 from stackx.outdir import OutputDir
 
 DEFINITIONS = {
@@ -270,7 +268,7 @@ def _records_html(res: CaseResult) -> str:
         f = shown(r)
         line = [_td(r.solver, "l"), _td(f"{r.knob} {r.value}" if r.knob else "-", "l"),
                 _td(number(r.us_per_step, ".2f")), _td(number(r.us_per_call, ".2f")),
-                _td(f["error"] if r.solver != REFERENCE_SOLVER else "reference"), _td(f["error_max"]),
+                _td(f["error"] if not r.reference else "reference"), _td(f["error_max"]),
                 _td(f["worst_step"])]
         line += [_td(f[k]) for k in ("max_depth", "max_gap", "peak_depth", "reach", "top_rest_error", "rms_motion",
                                      "top_p2p", "launch", "steps_to_recover", "steps_to_settle")]

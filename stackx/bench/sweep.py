@@ -1,7 +1,7 @@
 """Run a bench case: every plan's knob values as one batched run per solver, then timings and errors.
 
 The measures come from the batched run (the runner puts the same solver and shape in one batch), watched at
-every step (``stackx.bench.accuracy``). Time per step cannot be split between the rows of a batch, so it is
+every step by the model's step log (the column's: ``stackx.models.column.error``). Time per step cannot be split between the rows of a batch, so it is
 measured apart: short runs of one row from the scene's start, repeated, the median kept. A batch that blows
 up is run again row by row, so that one unstable knob value is a failing record and not a lost solver.
 
@@ -17,15 +17,13 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
-from stackx.bench.accuracy import RowLog, StepLog
-from stackx.bench.measures import extra_measures, top_motion
 from stackx.bench.plan import CASE, Case, SolverPlan
 from stackx.bench.timing import one_thread, time_run
-from stackx.config import RunSpec
 from stackx.criteria import NAMES, judge, passed
 from stackx.errors import RunError
 from stackx.results import RunResult
 from stackx.runner import run_experiment
+from stackx.spec import Plan, RunSpec
 
 RUN_MEASURES = ("max_depth", "peak_depth", "reach", "launch", "rms_motion")  # taken from the runner's measures
 
@@ -51,6 +49,7 @@ class Record:
     us_per_step: float | None = None
     us_per_call: float | None = None
     timing: dict[str, Any] = field(default_factory=dict)
+    reference: bool = False  # the model's reference solver: its error is zero by definition
 
     @property
     def crushed(self) -> bool:
@@ -70,16 +69,17 @@ def _run_name(plan: SolverPlan, variant: str, value: int) -> str:
     return f"{plan.solver}/{variant}/{value}"
 
 
-def _measure(case: Case, plan: SolverPlan, variant: str, value: int, result: RunResult, log: RowLog) -> Record:
+def _measure(case: Case, plan: SolverPlan, variant: str, value: int, result: RunResult, log: Any) -> Record:
+    """A finished run's record: its measures, the model's for the bench, and the step log's (``log`` is the
+    row's log, None when the model has no reference to measure against)."""
     rec = _record(case, plan, variant, value)
     m = result.measures
     rec.measures = {k: float(m[k]) for k in RUN_MEASURES}  # type: ignore[arg-type]
-    rec.measures.update(extra_measures(result))
-    rec.measures.update(log.timeline())  # type: ignore[arg-type]
-    if case.section.claim is not None:
-        rec.measures.update(top_motion(result))
-    rec.crushed_at = log.crushed_at
-    rec.error = log.error()
+    rec.measures.update(result.spec.model.bench_measures(result, case.section.claim is not None))
+    if log is not None:
+        rec.measures.update(log.timeline())
+        rec.crushed_at = log.crushed_at
+        rec.error = log.error()
     verdicts = judge(rec.measures, case.section.criteria)
     rec.criteria = {name: v.as_dict() for name, v in verdicts.items()}
     rec.passed = passed(verdicts)
@@ -88,7 +88,8 @@ def _measure(case: Case, plan: SolverPlan, variant: str, value: int, result: Run
 
 def _record(case: Case, plan: SolverPlan, variant: str, value: int) -> Record:
     params = plan.params[variant][value].model_dump(mode="json")
-    return Record(case.name, plan.solver, plan.knob, value if plan.knob else None, variant, params)
+    return Record(case.name, plan.solver, plan.knob, value if plan.knob else None, variant, params,
+                  reference=plan.solver == case.run.model.reference)
 
 
 def _blown(case: Case, plan: SolverPlan, variant: str, value: int, message: str) -> Record:
@@ -111,11 +112,13 @@ def run_plan(case: Case, plan: SolverPlan, progress: Progress | None = None) -> 
     record = set(range(case.run.steps + 1)) if case.section.claim is not None else None
     runs = _runs(case, plan)
 
-    def run(specs: list[RunSpec], log: StepLog, report: Progress | None) -> dict[str, RunResult]:
-        experiment = dataclasses.replace(case.spec, runs=specs, outputs=[])
+    whole = case.spec
+
+    def run(specs: list[RunSpec], log: Any, report: Progress | None) -> dict[str, RunResult]:
+        experiment = Plan(whole.file, whole.name, whole.description, specs, whole.limits)
         return {r.name: r for r in run_experiment(experiment, report, log, record).runs}
 
-    log = StepLog(case.section.criteria)
+    log = case.run.model.step_log(case.section.criteria)
     try:
         results = run([r for _, _, r in runs], log, progress)
     except RunError:
@@ -129,7 +132,7 @@ def run_plan(case: Case, plan: SolverPlan, progress: Progress | None = None) -> 
             except RunError as exc:
                 out.append(_blown(case, plan, variant, value, str(exc)))
                 continue
-        out.append(_measure(case, plan, variant, value, result, log.rows[spec.name]))
+        out.append(_measure(case, plan, variant, value, result, log.rows[spec.name] if log is not None else None))
     return out
 
 

@@ -26,6 +26,7 @@ class Frames(Renderer):
     """The column drawn every few steps, with an optional HTML page that plays the pictures."""
 
     Params = FramesParams
+    models = ("column",)
 
     def steps(self) -> list[int]:
         p = self.params

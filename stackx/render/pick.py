@@ -2,11 +2,11 @@
 
 from __future__ import annotations
 
-from stackx.config import ExperimentSpec
-from stackx.outputs import Fail
+from stackx.spec import Plan
+from stackx.errors import Fail
 
 
-def run_name(spec: ExperimentSpec, wanted: str | None, fail: Fail) -> str:
+def run_name(spec: Plan, wanted: str | None, fail: Fail) -> str:
     """``wanted``, or the only run; an experiment with several runs must name one."""
     names = [r.name for r in spec.runs]
     if wanted is None:

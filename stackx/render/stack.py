@@ -21,6 +21,7 @@ class StackPicture(Renderer):
     """The column drawn at one step, by default the final state."""
 
     Params = StackParams
+    models = ("column",)
 
     def check(self, spec, fail) -> None:  # type: ignore[no-untyped-def]
         self.run = run_name(spec, self.params.run, fail)

@@ -7,7 +7,7 @@ from typing import Annotated
 from pydantic import BaseModel, ConfigDict, Field
 
 from stackx.gfxlib import Canvas
-from stackx.state import ColumnState
+from stackx.models.column.state import ColumnState
 
 Colour = tuple[Annotated[int, Field(ge=0, le=255)], Annotated[int, Field(ge=0, le=255)],
                Annotated[int, Field(ge=0, le=255)]]

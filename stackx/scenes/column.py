@@ -107,7 +107,7 @@ class Column(Scene):
     def build(self):  # type: ignore[override]
         import numpy as np
 
-        from stackx.state import ColumnState
+        from stackx.models.column.state import ColumnState
 
         boxes = self.params.box_list()
         row = lambda f: np.array([[f(b) for b in boxes]], dtype=np.float64)  # noqa: E731

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from pydantic import BaseModel, ConfigDict, Field, field_validator
 
-from stackx.expr import ExprError, evaluate
+from stackx.expr import ExprError, Known, evaluate
 from stackx.outputs import Sink
 from stackx.registry import sinks
 
@@ -42,8 +42,8 @@ class KeyValue(Sink):
 
     Params = KeyValueParams
 
-    def _runs(self, spec) -> dict[str, int]:  # type: ignore[no-untyped-def]
-        return {r.name: r.scene.final_size() for r in spec.runs}
+    def _runs(self, spec) -> dict[str, Known]:  # type: ignore[no-untyped-def]
+        return {r.name: Known(r.scene.final_size(), r.model.SCALARS, r.model.VECTORS) for r in spec.runs}
 
     def check(self, spec, fail) -> None:  # type: ignore[no-untyped-def]
         runs = self._runs(spec)

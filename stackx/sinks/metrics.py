@@ -27,7 +27,7 @@ class Metrics(Sink):
     def write(self, result, out) -> None:  # type: ignore[no-untyped-def]
         doc = {
             "config": result.spec.name,
-            "runs": {r.name: {"solver": r.spec.solver_cls.plugin_name, "boxes": r.final.boxes,
+            "runs": {r.name: {"solver": r.spec.solver_cls.plugin_name, "boxes": r.spec.scene.final_size(),
                               "steps": r.spec.steps, "dt": r.spec.dt, **r.measures} for r in result.runs},
         }
         out.write_text(self.params.path, json.dumps(doc, indent=2, sort_keys=True) + "\n")

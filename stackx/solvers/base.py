@@ -2,7 +2,8 @@
 
 A solver is built once per batch: it receives one validated params object per batch row (the variants of a
 sweep may differ in any parameter) and packs them into arrays for its stepping loop. ``advance`` moves the
-state forward by a number of steps in place and must call ``stackx.monitor.observe`` after every step.
+state of one of its ``models`` forward by a number of steps in place and updates the state's monitors after
+every step (on the column: ``stackx.models.column.monitor.observe``).
 """
 
 from __future__ import annotations
@@ -13,7 +14,6 @@ import numpy as np
 from pydantic import BaseModel, BeforeValidator, ConfigDict, Field
 
 from stackx.solvers.position import STAGES
-from stackx.state import ColumnState
 
 
 class Correction(BaseModel):
@@ -85,7 +85,7 @@ class Solver:
         return (on, self.column("correction.slop"), self.column("correction.percent"), stage,
                 self.column("correction.max_push", np.inf))
 
-    def advance(self, state: ColumnState, steps: int) -> None:
+    def advance(self, state: Any, steps: int) -> None:
         raise NotImplementedError
 
     @classmethod
@@ -99,7 +99,7 @@ class Solver:
                 count *= value
         return count
 
-    def remove_box(self, state: ColumnState, box: int) -> None:
+    def remove_box(self, state: Any, box: int) -> None:
         """Forget box ``box``, which a scene event is about to take out of ``state`` (still holding it).
 
         Memory kept per box or per contact (contact k is the one under box k, as in ``state.depths()``) in

@@ -19,11 +19,11 @@ import numpy as np
 from pydantic import Field
 
 from stackx.kernel import kernel, prange
-from stackx.monitor import observe
+from stackx.models.column.monitor import observe
 from stackx.registry import solvers
 from stackx.solvers.contacts import ImpulseParams, ImpulseSolver, solve_velocities
 from stackx.solvers.pgs import integrate_positions
-from stackx.state import ColumnState
+from stackx.models.column.state import ColumnState
 
 
 class BaumgarteParams(ImpulseParams):

@@ -23,7 +23,7 @@ from pydantic import BaseModel, ConfigDict, Field
 from stackx.kernel import kernel
 from stackx.solvers.base import Solver
 from stackx.solvers.pgs import gravity
-from stackx.state import ColumnState
+from stackx.models.column.state import ColumnState
 
 
 SPECULATIVE_DOC = ("contacts whose gap is below this (m) take part too, allowed to close the gap within the "

@@ -27,14 +27,14 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
 from stackx.kernel import kernel, prange
-from stackx.monitor import observe
+from stackx.models.column.monitor import observe
 from stackx.registry import solvers
 from stackx.solvers.base import Correction, LabCorrection, Solver
 from stackx.solvers.contacts import depth, inverse_mass_sum, prepare, relative_velocity, speculative_field
 from stackx.solvers.isotonic import solve_column, workspace
 from stackx.solvers.position import correct_column, position_workspace
 from stackx.solvers.pgs import gravity, integrate_positions
-from stackx.state import ColumnState
+from stackx.models.column.state import ColumnState
 
 
 class ExactParams(BaseModel):

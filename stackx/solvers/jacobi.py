@@ -24,14 +24,14 @@ import numpy as np
 from pydantic import Field
 
 from stackx.kernel import kernel, prange
-from stackx.monitor import observe
+from stackx.models.column.monitor import observe
 from stackx.registry import solvers
 from stackx.solvers.base import Correction, LabCorrection
 from stackx.solvers.contacts import (ImpulseParams, ImpulseSolver, prepare, push,
                                     relative_velocity, speculative_field, warm_start)
 from stackx.solvers.position import correct_column, position_workspace
 from stackx.solvers.pgs import gravity, integrate_positions
-from stackx.state import ColumnState
+from stackx.models.column.state import ColumnState
 
 
 class JacobiParams(ImpulseParams):

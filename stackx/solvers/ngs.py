@@ -22,11 +22,11 @@ from pydantic import Field
 
 from stackx.correct import correct
 from stackx.kernel import kernel, prange
-from stackx.monitor import observe
+from stackx.models.column.monitor import observe
 from stackx.registry import solvers
 from stackx.solvers.contacts import ImpulseParams, ImpulseSolver, depth, solve_velocities
 from stackx.solvers.pgs import integrate_positions
-from stackx.state import ColumnState
+from stackx.models.column.state import ColumnState
 
 SOLVED = 3.0  # position passes stop once no contact is deeper than this many slops (Box2D 2.x)
 

@@ -15,11 +15,11 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
 from stackx.kernel import kernel, prange
-from stackx.monitor import observe
+from stackx.models.column.monitor import observe
 from stackx.registry import solvers
 from stackx.solvers.base import Correction, LabCorrection, Solver
 from stackx.solvers.position import correct_column, position_workspace
-from stackx.state import ColumnState
+from stackx.models.column.state import ColumnState
 
 
 class PGSParams(BaseModel):

@@ -31,12 +31,12 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
 from stackx.kernel import kernel, prange
-from stackx.monitor import observe
+from stackx.models.column.monitor import observe
 from stackx.registry import solvers
 from stackx.solvers.contacts import (ImpulseSolver, depth, prepare, push, relative_velocity, speculative_field,
                                     warm_start)
 from stackx.solvers.pgs import gravity, integrate_positions
-from stackx.state import ColumnState
+from stackx.models.column.state import ColumnState
 
 STATIC_HERTZ = 2.0  # contacts with a static side (the floor) are this much stiffer (Box2D v3)
 SUBSTEP_HERTZ = 0.25  # the contact frequency is at most this share of the substep rate (Box2D v3)

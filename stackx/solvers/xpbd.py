@@ -23,12 +23,12 @@ from pydantic import BaseModel, ConfigDict, Field
 
 from stackx.correct import correct
 from stackx.kernel import kernel, prange
-from stackx.monitor import observe
+from stackx.models.column.monitor import observe
 from stackx.registry import solvers
 from stackx.solvers.base import Solver
 from stackx.solvers.contacts import depth, inverse_mass_sum
 from stackx.solvers.pgs import gravity, integrate_positions
-from stackx.state import ColumnState
+from stackx.models.column.state import ColumnState
 
 
 class XPBDParams(BaseModel):

@@ -7,8 +7,8 @@ import pytest
 
 from stackx import kernel
 from stackx.criteria import Criteria, judge, passed
-from stackx.monitor import observe
-from stackx.state import ColumnState
+from stackx.models.column.monitor import observe
+from stackx.models.column.state import ColumnState
 
 LAB = Criteria()  # the hard cases' definitions: 2 x slop 0.01, RMS motion below 1e-4 m/s, launch up to 1 m/s
 

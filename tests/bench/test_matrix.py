@@ -53,6 +53,7 @@ def test_a_crushed_cell_says_where_and_shows_no_figure() -> None:
 def _timed(solver: str, value: int | None, us: float, error: float, crushed_at: int | None = None) -> Record:
     rec = _record(value or 0)
     rec.solver, rec.value, rec.us_per_step, rec.error, rec.crushed_at = solver, value, us, {"rms": error}, crushed_at
+    rec.reference = solver == "exact"  # the column's reference, as the sweep marks it
     return rec
 
 

@@ -7,10 +7,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from stackx.bench.measures import extra_measures, top_motion
+from stackx.models.column.measures import extra_measures, top_motion
 from stackx.config import load
 from stackx.results import RunResult
-from stackx.state import ColumnState
+from stackx.models.column.state import ColumnState
 
 DT = 0.1
 TOP = [3.0, 2.0, 1.2, 1.4, 1.45, 1.3, 1.3, 1.35]  # falls, touches at 1.2 (box 0 at 0.5), bounces, rests

@@ -4,11 +4,12 @@ from __future__ import annotations
 
 import pytest
 
-from stackx.expr import ExprError, evaluate
+from stackx.expr import ExprError, Known, evaluate
+from stackx.models.column.measures import SCALARS, VECTORS
 
 MEASURES = {"a": {"y": [1.0, 2.0, 3.5], "max_depth": 0.25, "depth": [0.0, 0.1, 0.2]},
             "b": {"y": [0.5, 1.5, 2.0], "max_depth": 0.5, "depth": [0.3, 0.0, 0.0]}}
-RUNS = {"a": 3, "b": 3}
+RUNS = {"a": Known(3, SCALARS, VECTORS), "b": Known(3, SCALARS, VECTORS)}
 
 
 @pytest.mark.parametrize("text, value", [
@@ -24,7 +25,7 @@ def test_evaluates(text: str, value: float) -> None:
 
 
 def test_single_run_needs_no_prefix() -> None:
-    assert evaluate("y[1] - max_depth", {"main": 3}, {"main": MEASURES["a"]}) == 1.75
+    assert evaluate("y[1] - max_depth", {"main": RUNS["a"]}, {"main": MEASURES["a"]}) == 1.75
 
 
 @pytest.mark.parametrize("text, words", [

@@ -16,7 +16,7 @@ from tests.conftest import Cli
 HEADER = """\
 import numpy as np
 from pydantic import BaseModel, ConfigDict
-from stackx.monitor import observe
+from stackx.models.column.monitor import observe
 from stackx.registry import solvers
 from stackx.solvers.base import Solver
 

@@ -12,7 +12,7 @@ from typing import Any
 import numpy as np
 
 from stackx import registry
-from stackx.state import ColumnState
+from stackx.models.column.state import ColumnState
 from tests.conftest import REPO
 
 registry.load_local_plugins(REPO / "plugins")

@@ -15,7 +15,7 @@ from stackx import kernel, registry
 from stackx.config import load
 from stackx.errors import ConfigError
 from stackx.runner import run_experiment
-from stackx.state import ColumnState
+from stackx.models.column.state import ColumnState
 from tests.conftest import CONFIGS
 from tests.solvers.columns import solver, solver_names
 

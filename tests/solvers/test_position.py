@@ -59,7 +59,7 @@ def test_the_cap_scales_the_whole_move_down_to_max_push() -> None:
 def _recovery(n: int, stage: str, steps: int) -> int | None:
     """Steps until every contact of a column spawned 0.1 m deep at each contact stays within 2 x slop."""
     y = 0.4 + 0.9 * np.arange(n)
-    from stackx.state import ColumnState
+    from stackx.models.column.state import ColumnState
 
     state = ColumnState(y[None, :].copy(), np.zeros((1, n)), np.ones((1, n)), np.full((1, n), 0.5))
     stepper = solver("exact", [{"correction": {"slop": SLOP, "percent": PERCENT, "stage": stage, "max_push": 0.5}}])
@@ -85,7 +85,7 @@ def test_the_sequential_stage_with_the_same_cap_is_slower_on_a_tall_column() -> 
 
 def test_swept_contacts_land_a_fast_box_without_penetration() -> None:
     """A box at -50 m/s moves 0.83 m in a step: the fixed 0.02 m margin lets it in (0.17 m here), the swept step never."""
-    from stackx.state import ColumnState
+    from stackx.models.column.state import ColumnState
 
     def peak(swept: bool) -> float:
         state = ColumnState(np.array([[0.5, 1.5, 4.0]]), np.array([[0.0, 0.0, -50.0]]), np.ones((1, 3)),

@@ -25,7 +25,7 @@ from stackx.errors import StackxError
 from stackx.results import ExperimentResult
 from stackx.runner import run_experiment
 from stackx.session import run_all
-from stackx.state import ColumnState
+from stackx.models.column.state import ColumnState
 from tests.conftest import CONFIGS, REPO
 from tests.speed.artifacts import differences
 

@@ -15,7 +15,7 @@ import numpy as np
 class ColumnState:
     """Heights, velocities, inverse masses and half-heights, each shaped ``(batch, boxes)``.
 
-    The monitors (see ``stackx.monitor.observe``) are updated by solvers after every step, so a compiled run
+    The monitors (see ``stackx.models.column.monitor.observe``) are updated by solvers after every step, so a compiled run
     does not return to Python per step: ``last`` (the heights after the previous step, from which
     ``launch`` measures motion) and ``touched`` ``(batch, boxes)``, ``peak_depth``, ``reach`` and ``launch``
     ``(batch,)``.

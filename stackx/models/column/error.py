@@ -38,16 +38,14 @@ from typing import Any
 
 import numpy as np
 
-from stackx.config import RunSpec
 from stackx.criteria import Criteria
 from stackx.kernel import kernel
+from stackx.models.column.state import ColumnState
 from stackx.runner import OnStep
 from stackx.solvers.exact import solve_step
 from stackx.solvers.isotonic import workspace
 from stackx.solvers.pgs import gravity
-from stackx.state import ColumnState
-
-REFERENCE_SOLVER = "exact"  # the solver whose velocity stage every step is measured against
+from stackx.spec import RunSpec
 
 
 class BatchLog:
@@ -166,8 +164,9 @@ class StepLog:
         swept = np.array([bool(getattr(r.solver_params, "swept", False)) for r in runs])
         c = self.criteria
 
-        def on_step(k: int, y: np.ndarray, v: np.ndarray, after: ColumnState) -> None:
+        def on_step(k: int, before: ColumnState, after: ColumnState) -> None:
             log.steps = k + 1
+            y, v = before.y, before.v
             n = y.shape[1]  # boxes left after scene events; the scratch is sized for the most
             log_step(k, y, v, after.y, after.v, after.inv_mass, after.half, after.reach, g, dt, speculative, swept,
                      c.depth_limit, c.settle, c.reach, log.sumsq, log.values, log.measured, log.worst,
