@@ -62,7 +62,10 @@ def _load_all(paths: list[str], sets: list[str] | None, plugins: Path | None) ->
     from stackx.config import config_files, load
     from stackx.errors import ConfigError
 
-    specs = [load(f, sets, plugins) for f in config_files(paths)]
+    notes: list[str] = []
+    specs = [load(f, sets, plugins, notes) for f in config_files(paths)]
+    for note in dict.fromkeys(notes):  # once each, though every config repeats it
+        typer.echo(f"note: {note}", err=True)
     _warn_failed_plugins()
     owner: dict[str, str] = {}
     for spec in specs:
@@ -86,12 +89,14 @@ def _warn_failed_plugins() -> None:
 @app.command()
 def run(paths: Paths, out: Annotated[Path, typer.Option("--out", "-o", help="output folder")] = Path("out"),
         sets: Sets = None, plugins: Plugins = None, debug: Debug = False,
-        quiet: Annotated[bool, typer.Option("--quiet", "-q", help="no progress bar or table")] = False) -> None:
+        quiet: Annotated[bool, typer.Option("--quiet", "-q", help="no progress bar or table")] = False,
+        wide: Annotated[bool, typer.Option("--wide", help="a wider table: launch, reach, full precision")] = False,
+        ) -> None:
     """Run experiments and write their artifacts into the output folder."""
     with _guard(debug):
         from stackx.session import run_all
 
-        run_all(_load_all(paths, sets, plugins), out, quiet=quiet)
+        run_all(_load_all(paths, sets, plugins), out, quiet=quiet, wide=wide)
 
 
 @app.command()

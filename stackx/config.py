@@ -148,8 +148,12 @@ def _subtree_marks(src: Source, path: Path) -> dict[Path, Mark]:
     return {p[len(path):]: m for p, m in src.values.items() if p[: len(path)] == path}
 
 
-def apply_sets(src: Source, sets: list[str]) -> Source:
-    """Apply ``--set key.path=value`` overrides (values parsed as YAML) to a loaded config."""
+def apply_sets(src: Source, sets: list[str], notes: list[str] | None = None) -> Source:
+    """Apply ``--set key.path=value`` overrides (values parsed as YAML) to a loaded config.
+
+    Switching a plugin (``--set solver.name=baumgarte``) keeps the section's keys that the new plugin accepts
+    and drops the others, each named in ``notes``: the old solver's ``iterations`` means nothing to a solver
+    without them, and refusing the switch would make every comparison a hand edit of the file."""
     out = src.copy()
     for text in sets:
         key, eq, raw = text.partition("=")
@@ -166,7 +170,34 @@ def apply_sets(src: Source, sets: list[str]) -> Source:
             _set(out, path, value, {(): mark})
         except KeyError as exc:
             raise ConfigError(f"no such place in the config: {exc.args[0]}", file=where) from None
+        if path in _SWITCHES and isinstance(value, str):
+            dropped = _keep_accepted(out, path[:-1], _SWITCHES[path], value, where)
+            if dropped and notes is not None:
+                notes.append(f"{where}: dropped {', '.join(dropped)} ({value!r} does not take them)")
     return out
+
+
+_SWITCHES: dict[Path, registry.Registry[Any]] = {("solver", "name"): registry.solvers,
+                                                 ("scene", "name"): registry.scenes}
+
+
+def _keep_accepted(src: Source, section: Path, reg: registry.Registry[Any], name: str, where: str) -> list[str]:
+    """Drop the keys of ``section`` that plugin ``name`` does not accept; return them, in the file's order."""
+    try:
+        params = reg.get(name).Params
+    except ConfigError as exc:
+        raise ConfigError(exc.message, file=where) from None
+    accepted = {f.alias or k for k, f in params.model_fields.items()} | set(params.model_fields) | {"name"}
+    node = src.data
+    for part in section:
+        node = node[part]
+    dropped = [k for k in node if k not in accepted]
+    for k in dropped:
+        del node[k]
+        for table in (src.values, src.keys):
+            for p in [p for p in table if p[: len(section) + 1] == (*section, k)]:
+                del table[p]
+    return dropped
 
 
 # ---------------------------------------------------------------------------- pydantic errors, located
@@ -450,12 +481,14 @@ def local_plugins(plugins: FsPath | None, default: FsPath | None) -> FsPath | No
     return folder
 
 
-def load(path: str, sets: list[str] | None = None, plugins: FsPath | None = None) -> ExperimentSpec:
-    """Load, override and validate one config file; local plugins (``--plugins`` or nearest) come first."""
+def load(path: str, sets: list[str] | None = None, plugins: FsPath | None = None,
+         notes: list[str] | None = None) -> ExperimentSpec:
+    """Load, override and validate one config file; local plugins (``--plugins`` or nearest) come first.
+    What an override changed beyond its own key (see ``apply_sets``) is added to ``notes``."""
     folder = local_plugins(plugins, nearest_plugins(path) if plugins is None else None)
     src = load_file(path)
     if sets:
-        src = apply_sets(src, sets)
+        src = apply_sets(src, sets, notes)
     spec = build(src)
     spec.sets = list(sets or [])
     spec.plugins = str(folder.resolve()) if folder is not None else None

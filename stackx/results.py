@@ -32,7 +32,8 @@ class RunResult:
     one), and its measures.
 
     ``frames[k]`` is the state before step ``k`` (``frames[0]`` the initial state, ``frames[steps]`` the
-    final one). ``wall_seconds`` is the stepping time charged to this run (its batch's time divided evenly).
+    final one). ``wall_seconds`` is the stepping time charged to this run (its batch's time divided evenly,
+    a compile not counted); ``compiled`` says whether it ran compiled by numba or as plain Python.
     """
 
     spec: RunSpec
@@ -40,6 +41,7 @@ class RunResult:
     frames: Mapping[int, Any]
     measures: dict[str, float | list[float]]
     wall_seconds: float = 0.0
+    compiled: bool = False
 
     @property
     def name(self) -> str:

@@ -22,7 +22,7 @@ from stackx import kernel
 from stackx.errors import BlowUp, RunError, first_line
 from stackx.results import ExperimentResult, RunFrames, RunResult
 from stackx.spec import Plan, RunSpec, record_steps
-from stackx.watch import Watch, add_finished
+from stackx.watch import Watch, add_finished, snapshot
 
 CHUNK = 500  # most steps per solver call: bounds how often progress is reported and blow-ups are caught
 
@@ -58,8 +58,9 @@ def run_experiment(spec: Plan, progress: Progress | None = None,
     try:
         for _, group in groupby(ordered, key=_batch_key):
             batch = list(group)
-            with kernel.compiled(kernel.worth_compiling(_work(batch))):
-                for r in _run_batch(spec, batch, progress, observer, wanted):
+            on = kernel.worth_compiling(_work(batch))
+            with kernel.compiled(on):
+                for r in _run_batch(spec, batch, progress, observer, wanted, on):
                     by_name[r.name] = r
     except BlowUp as exc:
         add_finished(exc.report, by_name, [r.name for r in spec.runs])
@@ -69,9 +70,11 @@ def run_experiment(spec: Plan, progress: Progress | None = None,
 
 
 def _run_batch(spec: Plan, runs: list[RunSpec], progress: Progress | None,
-               observer: StepObserver | None, wanted: set[int]) -> list[RunResult]:
+               observer: StepObserver | None, wanted: set[int], compiled: bool) -> list[RunResult]:
     model = runs[0].model
     state, solver = _setup(spec, runs)
+    if compiled:
+        _warm_up(state, solver)
     on_step = observer.batch(runs) if observer is not None else None
     watch = Watch(spec.file, [r.name for r in runs], solver, model, runs[0].steps, spec.limits.max_speed)
     watch.start(state)
@@ -103,8 +106,20 @@ def _run_batch(spec: Plan, runs: list[RunSpec], progress: Progress | None,
             events[stop].apply(state, solver)
         frames[stop] = state.copy()
     measures = model.measure(frames, steps, np.array([r.dt for r in runs]))
-    return [RunResult(run, frames[steps].row(b), RunFrames(frames, b), measures[b], wall / len(runs))
+    return [RunResult(run, frames[steps].row(b), RunFrames(frames, b), measures[b], wall / len(runs), compiled)
             for b, run in enumerate(runs)]
+
+
+def _warm_up(state: Any, solver: Any) -> None:
+    """One step of a copy of the batch by a copy of the solver, untimed: compiling the kernels (or loading them
+    from the cache) happens here, so the time charged to the runs is stepping alone. A failure is left for
+    the real run to report."""
+    twin = snapshot(solver)
+    if twin is not None:
+        try:
+            twin.advance(state.copy(), 1)
+        except Exception:
+            pass
 
 
 def _setup(spec: Plan, runs: list[RunSpec]) -> tuple[Any, Any]:

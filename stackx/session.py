@@ -13,6 +13,7 @@ import json
 from pathlib import Path
 from typing import Any
 
+from rich import box
 from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
@@ -26,7 +27,7 @@ from stackx.results import ExperimentResult
 from stackx.runner import run_experiment
 
 
-def run_all(specs: list[ExperimentSpec], out: Path, quiet: bool = False) -> list[ExperimentResult]:
+def run_all(specs: list[ExperimentSpec], out: Path, quiet: bool = False, wide: bool = False) -> list[ExperimentResult]:
     preflight(specs, out)
     console = Console(stderr=True)
     results: list[ExperimentResult] = []
@@ -49,7 +50,7 @@ def run_all(specs: list[ExperimentSpec], out: Path, quiet: bool = False) -> list
         if any(r.runs for r in results):
             _write_timing(results, out)
     if not quiet:
-        Console().print(summary(results, out))
+        Console().print(summary(results, out, wide))
     return results
 
 
@@ -97,25 +98,37 @@ def _write_timing(results: list[ExperimentResult], out: Path) -> None:
         doc = {}
     for result in results:
         if result.runs:
-            doc[result.spec.name] = {r.name: {"us_per_step": r.us_per_step, "wall_seconds": r.wall_seconds}
+            doc[result.spec.name] = {r.name: {"us_per_step": r.us_per_step, "wall_seconds": r.wall_seconds,
+                                              "compiled": r.compiled}
                                       for r in result.runs}
     write_json(path, doc)
 
 
-def summary(results: list[ExperimentResult], out: Path) -> Table:
-    table = Table(title=f"stackx run -> {out}")
-    for col, just in (("config", "left"), ("run", "left"), ("solver", "left"), ("boxes", "right"),
-                      ("steps", "right"), ("max depth", "right"), ("peak depth", "right"),
-                      ("rms motion", "right"), ("µs/step", "right")):
-        table.add_column(col, justify=just)  # type: ignore[arg-type]
+MEASURED = (("max_depth", "depth m", "largest final penetration"), ("peak_depth", "peak m", "largest depth at any step"),
+            ("rms_motion", "motion m/s", "RMS motion over the final window"))
+
+
+def summary(results: list[ExperimentResult], out: Path, wide: bool = False) -> Table:
+    """One row per run. The default fits 80 columns (3 significant figures, names folded, numbers never cut);
+    ``wide`` adds the launch and reach monitors and full precision. µs/step says how the run was stepped:
+    ``jit`` compiled by numba (the compile not counted), ``py`` plain Python."""
+    table = Table(title=f"stackx run -> {out}", box=None if not wide else box.HEAVY_HEAD, pad_edge=False,
+                  caption="µs/step: jit = compiled (compile not counted), py = plain Python" if results else None)
+    table.add_column("run", overflow="fold")
+    table.add_column("solver", overflow="fold")
+    for head in ("boxes", "steps", *(h for _, h, _ in MEASURED), *(("launch m/s", "reach") if wide else ()),
+                 "µs/step"):
+        table.add_column(head, justify="right", no_wrap=True)
+    names = [k for k, _, _ in MEASURED] + (["launch", "reach"] if wide else [])
+    form = ".6g" if wide else ".3g"
     for result in results:
         if not result.runs:
-            table.add_row(result.spec.name, "-", "-", "-", "-", "-", "-", "-", "-")
+            table.add_row(result.spec.name, "-", *["-"] * (3 + len(names)))
         for r in result.runs:
-            m = r.measures
-            table.add_row(result.spec.name, r.name, r.spec.solver_cls.plugin_name, str(r.spec.scene.final_size()),
-                          str(r.spec.steps), _number(m, "max_depth", ".5f"), _number(m, "peak_depth", ".5f"),
-                          _number(m, "rms_motion", ".2e"), f"{r.us_per_step:.1f}")
+            how = "jit" if r.compiled else "py"
+            table.add_row(f"{result.spec.name}/{r.name}", r.spec.solver_cls.plugin_name, str(r.spec.scene.final_size()),
+                          str(r.spec.steps), *(_number(r.measures, k, form) for k in names),
+                          f"{r.us_per_step:{form}} {how}")
     return table
 
 
