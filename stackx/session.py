@@ -43,7 +43,7 @@ def run_all(specs: list[ExperimentSpec], out: Path, quiet: bool = False, wide: b
                     kept = out / failed_file(spec.name)
                     write_json(kept, {**exc.report, "resolved": spec.resolved})
                     raise BlowUp(f"{exc}; partial measures in {kept}", exc.report) from None
-                _write(spec, result, out)
+                write(spec, result, out)
                 bar.update(task, completed=total or 1)
                 results.append(result)
     finally:
@@ -78,13 +78,15 @@ def stage(spec: ExperimentSpec, result: ExperimentResult, out: Path) -> OutputDi
     return staged
 
 
-def _write(spec: ExperimentSpec, result: ExperimentResult, out: Path) -> None:
-    """Write an experiment's files, then its manifest entry; drop a failed-run file it leaves behind."""
+def write(spec: ExperimentSpec, result: ExperimentResult, out: Path) -> list[Path]:
+    """Write an experiment's files, then its manifest entry; drop a failed-run file it leaves behind. Return
+    the files written."""
     staged = stage(spec, result, out)
-    staged.commit()
+    written = staged.commit()
     if staged.staged:
         manifest.record(out, spec, staged.staged)
     (out / failed_file(spec.name)).unlink(missing_ok=True)
+    return written
 
 
 def _write_timing(results: list[ExperimentResult], out: Path) -> None:

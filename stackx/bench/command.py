@@ -37,9 +37,10 @@ def load_cases(paths: list[str], solvers: list[str] | None, plugins: Path | None
     return cases
 
 
-def bench(paths: list[str], solvers: list[str] | None, out: Path, plugins: Path | None = None,
+def bench(paths: list[str], solvers: list[str] | None, out: Path | None, plugins: Path | None = None,
           quiet: bool = False, command: str = "stackx bench", sets: list[str] | None = None) -> list[CaseResult]:
-    """Bench ``paths`` with ``solvers`` (None: every built-in and installed one); write into ``out``."""
+    """Bench ``paths`` with ``solvers`` (None: every built-in and installed one); write into ``out`` (None:
+    nothing is written, the results are returned)."""
     cases = load_cases(paths, solvers, plugins, sets)
     console = Console(stderr=True)
     start = time.perf_counter()
@@ -52,13 +53,15 @@ def bench(paths: list[str], solvers: list[str] | None, out: Path, plugins: Path 
             records = run_case(case, lambda n: bar.advance(task, n))
             results.append(CaseResult.build(case, records, left_out))
     wall = time.perf_counter() - start
-    staged = OutputDir(out)
-    write(results, staged, command, wall)
-    staged.commit()
+    if out is not None:
+        staged = OutputDir(out)
+        write(results, staged, command, wall)
+        staged.commit()
     if not quiet:
         screen = Console()
         if not screen.is_terminal:
             screen = Console(width=max(screen.width, WIDE))  # a log file gets the whole table, not a squeezed one
         print_all(results, screen)
-        screen.print(f"wrote {out / 'bench.json'} and {out / 'report.html'} in {wall:.1f} s")
+        if out is not None:
+            screen.print(f"wrote {out / 'bench.json'} and {out / 'report.html'} in {wall:.1f} s")
     return results
