@@ -172,12 +172,25 @@ def schema(plugins: Plugins = None, debug: Debug = False,
 
 @app.command()
 def verify(folder: Annotated[Path, typer.Argument(help="output folder holding a manifest.json")] = Path("out"),
+           configs: Annotated[Optional[list[str]], typer.Argument(
+               help="the configs to run again (files, or folders of *.yaml), each for the experiment of its name",
+               show_default=False)] = None,
+           plugins: Plugins = None,
+           trust: Annotated[bool, typer.Option(
+               "--trust", help="instead of named configs, run the configs and plugin folder the manifest records "
+                               "inside FOLDER (listed first; a path leading outside it is refused)")] = False,
            debug: Debug = False) -> None:
-    """Run the configs of a folder's manifest again and report every artifact whose bytes differ."""
+    """Run configs again and report every artifact whose bytes differ from FOLDER's manifest.
+
+    Only what you name runs: the CONFIGS (with the plugins 'stackx run CONFIGS' would import), or with --trust
+    what the folder itself holds.
+
+    Example: stackx run configs/ --out out && stackx verify out configs/
+    """
     with _guard(debug):
         from stackx.verify import verify as verify_folder
 
-        if verify_folder(folder, typer.echo):
+        if verify_folder(folder, typer.echo, configs, plugins, trust):
             raise typer.Exit(1)
 
 

@@ -28,7 +28,7 @@ import json
 import os
 import platform
 from importlib.metadata import PackageNotFoundError, version
-from pathlib import Path
+from pathlib import Path, PurePosixPath, PureWindowsPath
 from typing import Any
 
 from stackx import __version__
@@ -64,9 +64,25 @@ def relative(path: str | Path, folder: Path) -> str:
         return str(Path(path).resolve())
 
 
-def located(path: str, folder: Path) -> Path:
-    """A path the manifest of ``folder`` records, as a path from here (an absolute one as it is)."""
-    return Path(os.path.normpath(folder.resolve() / path))
+def inside(recorded: object, folder: Path) -> Path:
+    """A path the manifest of ``folder`` records, as a path from here, when it names something inside the folder.
+
+    The manifest is data that anyone can edit, so a path in it is never followed out of the folder: raise
+    ``ValueError`` saying why for anything that is not a plain relative path (absolute, a drive, ``..``, a
+    control character) or that leads out of the folder through a link.
+    """
+    if not isinstance(recorded, str) or not recorded:
+        raise ValueError(f"{json.dumps(recorded)} is not a path")
+    if any(ch < " " or ch == "\x7f" for ch in recorded):
+        raise ValueError(f"{json.dumps(recorded)} holds a control character")
+    posix = PurePosixPath(recorded.replace("\\", "/"))
+    if posix.is_absolute() or PureWindowsPath(recorded).drive or ".." in posix.parts:
+        raise ValueError(f"{json.dumps(recorded)} is an absolute path" if ".." not in posix.parts
+                         else f"{json.dumps(recorded)} climbs out with '..'")
+    path = folder.joinpath(*posix.parts)
+    if not path.resolve().is_relative_to(folder.resolve()):
+        raise ValueError(f"{json.dumps(recorded)} leads out through a link, to {path.resolve()}")
+    return path
 
 
 def _source(plugin: Any, folder: Path) -> dict[str, str]:

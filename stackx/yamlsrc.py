@@ -2,7 +2,8 @@
 
 Configs are edited by hand, so every error must point at a line and column. PyYAML's composer keeps a mark
 on each node; this module turns the node tree into plain Python data plus a table from key paths to marks.
-Duplicate keys, which PyYAML silently lets the last one win, are refused.
+Duplicate keys, which PyYAML silently lets the last one win, are refused, and so are aliases that would make a
+few hundred bytes expand into billions of values (see ``MAX_ALIAS_NODES``).
 """
 
 from __future__ import annotations
@@ -16,6 +17,20 @@ import yaml
 from stackx.errors import ConfigError
 
 Path = tuple[str | int, ...]
+
+MAX_ALIAS_NODES = 100_000
+"""How many YAML nodes (scalars, lists, mappings, keys) aliases may add to one document, counted as written.
+
+An alias (``*name``) stands for the whole node its anchor names, so nine aliases of a list of nine aliases of
+... grow by 9x per level: ten levels are a few hundred bytes of text and 3.5 billion values, minutes of CPU and
+more memory than the machine has. Every value a config holds costs about 4 us and 250 bytes to load with its
+mark, so the bound keeps the worst accepted document near 0.4 s and 25 MB. Configs reuse a section with an
+alias (a solver's parameters in each of its runs, a list of boxes in a few scenes): tens to thousands of nodes.
+Sweeps are written as ``grid:`` lists and expanded after loading, and text without aliases is never counted, so
+no config of any size is refused for what it writes out. Only what aliases add is counted, exactly: the sum,
+over the aliases as written, of the nodes each one names (anchors inside anchors included), which is what
+building the data would add to the nodes written in the text.
+"""
 
 
 @dataclass(frozen=True)
@@ -67,10 +82,51 @@ def _mark(file: str, node: yaml.Node) -> Mark:
     return Mark(file, node.start_mark.line + 1, node.start_mark.column + 1)
 
 
+class _Loader(yaml.SafeLoader):
+    """PyYAML's safe loader, counting the nodes aliases add while the document is composed.
+
+    Composing is linear in the text (an alias is the node its anchor names, shared, not copied), so the count
+    is known, and checked, at each alias before anything is built from the shared nodes.
+    """
+
+    def __init__(self, text: str, file: str) -> None:
+        super().__init__(text)
+        self.file = file
+        self.sizes: dict[int, int] = {}  # id of a composed node -> how many nodes it expands to
+        self.added = 0  # nodes added by the aliases composed so far
+
+    def compose_node(self, parent: yaml.Node | None, index: Any) -> yaml.Node:
+        if self.check_event(yaml.AliasEvent):
+            event = self.peek_event()
+            target = self.anchors.get(event.anchor)
+            if target is not None:  # an undefined alias is PyYAML's error
+                self._follow(event, target)
+            return super().compose_node(parent, index)
+        node = super().compose_node(parent, index)
+        if isinstance(node, yaml.MappingNode):
+            children = [child for pair in node.value for child in pair]
+        else:
+            children = node.value if isinstance(node, yaml.SequenceNode) else []
+        self.sizes[id(node)] = 1 + sum(self.sizes[id(child)] for child in children)
+        return node
+
+    def _follow(self, event: yaml.AliasEvent, target: yaml.Node) -> None:
+        where = {"file": self.file, "line": event.start_mark.line + 1, "col": event.start_mark.column + 1}
+        size = self.sizes.get(id(target))
+        if size is None:
+            raise ConfigError(f"alias *{event.anchor} is inside the node it names, so it never ends; "
+                              "write the value out", **where)
+        self.added += size
+        if self.added > MAX_ALIAS_NODES:
+            raise ConfigError(f"alias *{event.anchor} stands for {size:,} YAML nodes, and the aliases up to here "
+                              f"add {self.added:,}; aliases may add at most {MAX_ALIAS_NODES:,} nodes to a config",
+                              **where)
+
+
 def load_text(text: str, file: str) -> Source:
     """Parse one YAML document; raise ``ConfigError`` with the position of any syntax error."""
     try:
-        loader = yaml.SafeLoader(text)
+        loader = _Loader(text, file)
     except yaml.reader.ReaderError as exc:
         raise ConfigError(f"YAML error: {exc.reason}", file=file, **_position(text, exc.position)) from None
     try:
@@ -115,7 +171,7 @@ def load_file(path: str) -> Source:
     return load_text(text, path)
 
 
-def _build(loader: yaml.SafeLoader, node: yaml.Node, path: Path, src: Source) -> Any:
+def _build(loader: _Loader, node: yaml.Node, path: Path, src: Source) -> Any:
     src.values[path] = _mark(src.file, node)
     plain = {yaml.MappingNode: "tag:yaml.org,2002:map", yaml.SequenceNode: "tag:yaml.org,2002:seq"}
     if type(node) in plain and node.tag != plain[type(node)]:  # scalars' tags are checked by the constructor

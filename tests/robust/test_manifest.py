@@ -57,7 +57,7 @@ def test_manifest_lists_every_artifact_with_its_hash(two_runs: tuple[Path, Path]
 
 
 def test_verify_says_every_byte_is_identical(two_runs: tuple[Path, Path]) -> None:
-    code, out, _ = _cli("verify", str(two_runs[0]))
+    code, out, _ = _cli("verify", str(two_runs[0]), str(CONFIGS))
     assert code == 0, out
     digest = hashlib.sha256((two_runs[0] / "manifest.json").read_bytes()).hexdigest()
     assert f"every byte identical to {two_runs[0] / 'manifest.json'} (sha256 {digest})" in out
@@ -69,7 +69,7 @@ def test_verify_names_a_changed_byte(two_runs: tuple[Path, Path], tmp_path: Path
     frame = bytearray((copy / "f05.png").read_bytes())
     frame[77] ^= 0x01
     (copy / "f05.png").write_bytes(bytes(frame))
-    code, out, _ = _cli("verify", str(copy))
+    code, out, _ = _cli("verify", str(copy), str(CONFIGS))
     assert code == 1
     assert "DIFF 06-stack: f05.png: the file on disk differs from the manifest (changed after the run); against " \
            f"the re-run: first different byte at offset 77 ({len(frame)} bytes against {len(frame)})" in out
@@ -89,7 +89,7 @@ def test_a_later_run_merges_into_the_manifest_and_verify_replays_its_overrides(t
     assert after["06-stack"]["sets"] == ["solver.iterations=4"]
     assert after["06-stack"]["resolved"]["runs"][0]["solver"]["iterations"] == 4
     assert after["06-stack"]["artifacts"]["stack.png"] != before["06-stack"]["artifacts"]["stack.png"]
-    code, text, _ = _cli("verify", str(out))
+    code, text, _ = _cli("verify", str(out), str(CONFIGS))
     assert code == 0, text
 
 
@@ -99,9 +99,9 @@ def test_verify_reports_a_config_edited_since_the_run(tmp_path: Path) -> None:
     out = tmp_path / "out"
     assert _cli("run", str(config), "--out", str(out), "-q")[0] == 0
     config.write_text(config.read_text().replace("steps: 600", "steps: 300"))
-    code, text, _ = _cli("verify", str(out))
+    code, text, _ = _cli("verify", str(out), str(config))
     assert code == 1
-    assert f"note sink: {config.resolve()} has changed since the run" in text
+    assert f"note sink: {config} has changed since the run" in text
     # the metrics hold the number of steps, so they must differ (the final depth may not: the box has settled)
     assert "DIFF sink: sink.metrics.json: the re-run differs from the manifest; against the file on disk: first " \
            "different byte at offset" in text
@@ -115,8 +115,8 @@ def test_verify_without_a_manifest_is_a_usage_error(tmp_path: Path) -> None:
 
 def test_two_checkouts_give_the_same_manifest_and_verify_from_anywhere(cli: Cli, tmp_path: Path) -> None:
     """Paths are recorded from the output folder: the same configs in two folders (at different depths) give
-    the same manifest, byte for byte, and verify finds the configs from any working folder, also after the
-    whole checkout moved."""
+    the same manifest, byte for byte, and verify re-makes it from the named configs from any working folder,
+    also after the whole checkout moved."""
     checkouts = [tmp_path / "one", tmp_path / "deeper" / "two"]
     for root in checkouts:
         (root / "configs").mkdir(parents=True)
@@ -129,6 +129,25 @@ def test_two_checkouts_give_the_same_manifest_and_verify_from_anywhere(cli: Cli,
     assert first == second
     moved = tmp_path / "moved"
     checkouts[0].rename(moved)
-    done = cli("verify", moved / "out", cwd=tmp_path)
+    done = cli("verify", moved / "out", moved / "configs", cwd=tmp_path)
     assert done.returncode == 0, done.stdout + done.stderr
     assert "every byte identical" in done.stdout
+
+
+def test_verify_runs_only_the_named_configs_and_checks_the_other_files_on_disk(two_runs: tuple[Path, Path],
+                                                                               tmp_path: Path) -> None:
+    out = tmp_path / "out"
+    shutil.copytree(two_runs[0], out)
+    code, _, err = _cli("verify", str(out))
+    assert code == 2 and f"name the configs to run again (e.g. 'stackx verify {out} configs/')" in err
+    code, text, _ = _cli("verify", str(out), str(CONFIGS / "06-stack.yaml"))
+    assert code == 0, text
+    assert "ok   06-stack: 16 artifact(s) identical" in text and text.count("ok   ") == 1
+    recorded = json.loads((out / "manifest.json").read_text())["experiments"]["03-sink"]["config"]
+    assert f'skip 03-sink: not run again, its config was not named (the manifest records "{recorded}"); 2 of 2 ' \
+           "file(s) on disk as listed" in text
+    assert "verify: 1 experiment(s) of 5 (4 not named), 16 artifact(s): every byte identical" in text
+    (out / "03-sink.txt").write_text("depth_final=0\n")
+    code, text, _ = _cli("verify", str(out), str(CONFIGS / "06-stack.yaml"))
+    assert code == 1
+    assert "DIFF 03-sink: 03-sink.txt: the file on disk differs from the manifest (changed after the run)" in text
