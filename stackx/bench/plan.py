@@ -179,9 +179,15 @@ def load_case(spec: ExperimentSpec, names: list[str] | None) -> tuple[Case, dict
 
 
 def chosen_solvers(names: list[str] | None) -> list[type]:
-    """The solver classes to bench: those named (unknown names fail with the known ones), or by default
-    every built-in and installed solver (local plugin files join only when named: they may be plain Python)."""
+    """The solver classes to bench: those named (unknown names, and engines that are not installed, fail with
+    what to do), or by default every built-in and installed solver except those that say otherwise with
+    ``bench_by_default = False`` (the engines: stepped one Python call per step, a tall case takes them
+    minutes) and local plugin files (they may be plain Python): both join when named."""
     if names:
-        return [registry.solvers.get(n) for n in names]
-    return [registry.solvers.get(e.name) for e in registry.solvers.entries()
-            if e.origin == "built-in" or e.origin.startswith("entry point")]
+        chosen = [registry.solvers.get(n) for n in names]
+        for name, cls in zip(names, chosen):
+            registry.require_available("solver", name, cls)
+        return chosen
+    return [cls for e in registry.solvers.entries()
+            if e.origin == "built-in" or e.origin.startswith("entry point")
+            if getattr(cls := registry.solvers.get(e.name), "bench_by_default", True)]

@@ -30,6 +30,8 @@ from stackx.criteria import NAMES
 from stackx.metrics import MOTION_WINDOW
 from stackx.outdir import OutputDir
 
+PER_CALL_MARK = "*"  # after an engine's µs/step: timed one step per call, the only way it can be stepped
+
 DEFINITIONS = {
     "holds": "in the final state every contact (the floor's included) overlaps by at most max_depth <= "
              "criteria.depth_factor x criteria.slop and has at most that much gap (max_gap: a column resting on "
@@ -64,6 +66,10 @@ DEFINITIONS = {
                    "configs",
     "us_per_call": "the same, one step per call, as a game loop or an engine bound to Python is stepped: the "
                    "figure to set beside pymunk, Box2D or MuJoCo",
+    "one_step_per_call": "an engine (pymunk, Box2D, MuJoCo) steps once per Python call and has no way to take "
+                         "many steps in one, so it is timed per call only and its µs/step is its µs/call, marked "
+                         f"'{PER_CALL_MARK}'; it includes copying the bodies' heights and velocities back into the "
+                         "column and the column's monitors after every step",
     "knob": "each solver's cost knob (its 'knob' attribute, else its iterations or substeps parameter) runs at "
             "the values of bench.knob (or bench.knobs for that solver); the config's own solver also runs at "
             "the config's own value; a solver without a knob runs once",
@@ -195,6 +201,12 @@ def number(value: float | None, fmt: str = ".3g") -> str:
     return "-" if value is None else format(value, fmt)
 
 
+def step_time(rec: Record) -> str:
+    """A record's µs/step for a table; an engine's, which is its µs/call, marked (see DEFINITIONS)."""
+    text = number(rec.us_per_step, ".2f")
+    return text + PER_CALL_MARK if rec.us_per_step is not None and rec.timing.get("one_step_per_call") else text
+
+
 def _table(head: list[str], rows: list[list[str]], cls: str = "") -> str:
     th = "".join(f"<th>{_e(h)}</th>" for h in head)
     body = "".join("<tr>" + "".join(cells) + "</tr>" for cells in rows)
@@ -269,7 +281,7 @@ def _records_html(res: CaseResult) -> str:
     for r in case_records(res.records):
         f = shown(r)
         line = [_td(r.solver, "l"), _td(f"{r.knob} {r.value}" if r.knob else "-", "l"),
-                _td(number(r.us_per_step, ".2f")), _td(number(r.us_per_call, ".2f")),
+                _td(step_time(r)), _td(number(r.us_per_call, ".2f")),
                 _td(f["error"] if r.solver != REFERENCE_SOLVER else "reference"), _td(f["error_max"]),
                 _td(f["worst_step"])]
         line += [_td(f[k]) for k in ("max_depth", "max_gap", "peak_depth", "reach", "top_rest_error", "rms_motion",
@@ -278,7 +290,11 @@ def _records_html(res: CaseResult) -> str:
             v = r.criteria[name]
             line.append(_td("pass" if v["passed"] else f"fail: {v['failing']}", "pass" if v["passed"] else "fail"))
         rows.append(line)
-    return _table(head, rows)
+    note = ""
+    if any(r.timing.get("one_step_per_call") for r in res.records):
+        note = (f"<p class=note>{_e(PER_CALL_MARK)} an engine, stepped once per Python call: its µs/step is its "
+                "µs/call (see one_step_per_call).</p>")
+    return _table(head, rows) + note
 
 
 def _equal_cost_html(res: CaseResult) -> str:
