@@ -107,12 +107,10 @@ class Box2D3(Engine):
     """Box2D v3 (pyb2d3): substepped soft contacts with relax and speculative contacts; one call per step."""
 
     Params = Box2D3Params
+    column = Box2D3Column
     package = "pyb2d3"
     distribution = "pyb2d3"
 
     @classmethod
     def passes(cls, params: Box2D3Params) -> int:
         return 2 * params.substeps
-
-    def world(self, b: int, y: np.ndarray, v: np.ndarray, mass: np.ndarray, half: np.ndarray) -> Box2D3Column:
-        return Box2D3Column(self.engine, self.params[b], float(self.gravity[b]), float(self.dt[b]), y, v, mass, half)

@@ -88,6 +88,7 @@ class Box2D(Engine):
     """Box2D 2.3 (pybox2d): warm-started sequential impulses, then position passes; one call per step."""
 
     Params = Box2DParams
+    column = Box2DColumn
     package = "Box2D"
     distribution = "box2d"
     knob = "velocity_iterations"
@@ -95,6 +96,3 @@ class Box2D(Engine):
     @classmethod
     def passes(cls, params: Box2DParams) -> int:
         return params.velocity_iterations + params.position_iterations
-
-    def world(self, b: int, y: np.ndarray, v: np.ndarray, mass: np.ndarray, half: np.ndarray) -> Box2DColumn:
-        return Box2DColumn(self.engine, self.params[b], float(self.gravity[b]), float(self.dt[b]), y, v, mass, half)

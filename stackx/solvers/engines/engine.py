@@ -71,6 +71,7 @@ class World(Protocol):
 class Engine(Solver):
     """Base of the engine solvers: a subclass names its package and builds one ``World`` per batch row."""
 
+    column: ClassVar[type]  # its World for the column: made with (engine, params, g, dt, y, v, mass, half)
     package: ClassVar[str]  # the module the engine is imported as, e.g. "Box2D"
     distribution: ClassVar[str]  # the name pip installs it by, e.g. "box2d"
     one_step_per_call: ClassVar[bool] = True  # stackx.bench.timing times it one step per call only
@@ -110,8 +111,9 @@ class Engine(Solver):
                               f"install it with: {cls.install()}") from None
 
     def world(self, b: int, y: np.ndarray, v: np.ndarray, mass: np.ndarray, half: np.ndarray) -> World:
-        """The world of batch row ``b`` holding the column's boxes (heights, velocities, masses, half-heights)."""
-        raise NotImplementedError
+        """The world of batch row ``b`` holding the column's boxes (heights, velocities, masses, half-heights):
+        the engine's ``column`` class, given the engine's module, the row's params, gravity and dt."""
+        return self.column(self.engine, self.params[b], float(self.gravity[b]), float(self.dt[b]), y, v, mass, half)
 
     def advance(self, state: ColumnState, steps: int) -> None:
         if self.worlds is None:

@@ -116,6 +116,7 @@ class Mujoco(Engine):
     """MuJoCo: soft contact constraints solved together (Newton), slide joints; one call per step."""
 
     Params = MujocoParams
+    column = MujocoColumn
     package = "mujoco"
     distribution = "mujoco"
     knob = "substeps"
@@ -123,6 +124,3 @@ class Mujoco(Engine):
     @classmethod
     def passes(cls, params: MujocoParams) -> int:
         return params.substeps * params.iterations
-
-    def world(self, b: int, y: np.ndarray, v: np.ndarray, mass: np.ndarray, half: np.ndarray) -> MujocoColumn:
-        return MujocoColumn(self.engine, self.params[b], float(self.gravity[b]), float(self.dt[b]), y, v, mass, half)

@@ -111,8 +111,6 @@ class Pymunk(Engine):
     """pymunk (Chipmunk2D): sequential impulses with warm start and a slop-and-bias push-out; one call per step."""
 
     Params = PymunkParams
+    column = PymunkColumn
     package = "pymunk"
     distribution = "pymunk"
-
-    def world(self, b: int, y: np.ndarray, v: np.ndarray, mass: np.ndarray, half: np.ndarray) -> PymunkColumn:
-        return PymunkColumn(self.engine, self.params[b], float(self.gravity[b]), float(self.dt[b]), y, v, mass, half)
