@@ -16,6 +16,10 @@ joint) is said in its module. Boxes are ``WIDTH`` wide in the engine's horizonta
 locked and friction off, the width only places the contact points of a face. The floor is a static box whose
 top face is the line y = 0, ``FLOOR_WIDTH`` wide and ``FLOOR_DEPTH`` deep, or the engine's own infinite plane.
 
+Only the column model exists so far; the engine's knobs (its params and how a world is set up) are apart from the
+column's mapping (``column``, the ``World`` class that puts the column's boxes into a world), so another model
+joins as another such class beside it, with ``models`` naming both.
+
 The engine's package is imported only when a solver is made, never when stackx or its plugin list is loaded.
 ``unavailable()`` says, without importing it, why an engine cannot run here (its package is not installed)
 and the command that installs it: ``stackx plugins`` shows it, a config naming the engine stops at load with
@@ -97,7 +101,8 @@ class Engine(Solver):
             found = False
         if found:
             return None
-        return f"needs the Python package {cls.distribution!r}, which is not installed; install it with: {cls.install()}"
+        return (f"needs the Python package {cls.distribution!r}, which is not installed; "
+                f"install it with: {cls.install()}")
 
     @classmethod
     def load(cls) -> ModuleType:
@@ -116,6 +121,8 @@ class Engine(Solver):
         return self.column(self.engine, self.params[b], float(self.gravity[b]), float(self.dt[b]), y, v, mass, half)
 
     def advance(self, state: ColumnState, steps: int) -> None:
+        """``steps`` steps of every row: one engine call per row and step, the heights and velocities read back
+        into the state, then the monitors of every row. The worlds are built on the first call."""
         if self.worlds is None:
             self.worlds = [self.world(b, state.y[b].copy(), state.v[b].copy(), 1.0 / state.inv_mass[b],
                                       state.half[b].copy()) for b in range(state.batch)]

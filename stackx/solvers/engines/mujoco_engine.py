@@ -120,7 +120,3 @@ class Mujoco(Engine):
     package = "mujoco"
     distribution = "mujoco"
     knob = "substeps"
-
-    @classmethod
-    def passes(cls, params: MujocoParams) -> int:
-        return params.substeps * params.iterations
