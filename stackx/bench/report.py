@@ -13,6 +13,7 @@ import math
 import os
 import platform
 import sys
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from importlib import metadata
 from pathlib import Path
@@ -122,9 +123,13 @@ def machine() -> dict[str, Any]:
             "cpus": os.cpu_count(), "python": sys.version.split()[0], "compiled_kernels": kernel.enabled()}
 
 
-def versions() -> dict[str, str]:
-    """stackx, Python and every dependency, as the manifest records them, and matplotlib, which draws the plots."""
-    return {"stackx": __version__, **manifest.versions(), "matplotlib": metadata.version("matplotlib")}
+def versions(results: Sequence[CaseResult] = ()) -> dict[str, str]:
+    """stackx, Python and every dependency, as the manifest records them, matplotlib, which draws the plots, and
+    the package of every engine benched (its numbers are that version's)."""
+    engines = sorted({d for res in results for p in res.case.plans
+                      if (d := getattr(p.solver_cls, "distribution", None))})
+    return {"stackx": __version__, **manifest.versions(), "matplotlib": metadata.version("matplotlib"),
+            **{d: metadata.version(d) for d in engines}}
 
 
 def _case_doc(res: CaseResult) -> dict[str, Any]:
@@ -148,7 +153,7 @@ def bench_json(results: list[CaseResult], command: str, wall_seconds: float) -> 
     """Every record of every case, with the machine, versions, definitions and the stability matrix."""
     all_records = [r for res in results for r in res.records]
     doc = {
-        "command": command, "wall_seconds": wall_seconds, "machine": machine(), "versions": versions(),
+        "command": command, "wall_seconds": wall_seconds, "machine": machine(), "versions": versions(results),
         "definitions": DEFINITIONS,
         "cases": [_case_doc(res) for res in results],
         "matrix": {s: {c: cell.as_dict() for c, cell in row.items()} for s, row in matrix(all_records).items()},
@@ -353,7 +358,7 @@ def _case_html(res: CaseResult, plot: str | None) -> str:
 
 
 def report_html(results: list[CaseResult], plots: dict[str, str], command: str, wall_seconds: float) -> str:
-    mach, vers = machine(), versions()
+    mach, vers = machine(), versions(results)
     claims = [f"<li><b>{_e(res.name)}</b>: {_e(res.claim['text'])}</li>" for res in results if res.claim]
     defs = "".join(f"<li><b>{_e(k)}</b>: {_e(v)}</li>" for k, v in DEFINITIONS.items())
     blown = [r for res in results for r in res.records if r.blew_up]

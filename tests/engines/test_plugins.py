@@ -7,10 +7,12 @@ import json
 import os
 import subprocess
 import sys
+from importlib import metadata
 from pathlib import Path
 
 import pytest
 
+from stackx import registry
 from tests.conftest import CONFIGS, REPO, Cli
 from tests.engines.need import ENGINES, missing
 
@@ -101,6 +103,8 @@ def test_the_bench_times_an_engine_per_call_and_says_so(tmp_path: Path) -> None:
     doc = json.loads((tmp_path / "out" / "bench.json").read_text())
     records = {r["solver"]: r for r in doc["cases"][0]["records"]}
     assert set(records) == {engine, "pgs"} and set(doc["matrix"]) == {engine, "pgs"}
+    distribution = registry.solvers.get(engine).distribution
+    assert doc["versions"][distribution] == metadata.version(distribution)
     mine, lab = records[engine], records["pgs"]
     assert mine["timing"]["one_step_per_call"] is True
     assert mine["us_per_step"] == mine["us_per_call"] > 0
