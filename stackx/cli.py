@@ -131,9 +131,10 @@ def validate(paths: Paths, sets: Sets = None, plugins: Plugins = None, debug: De
 
 @app.command()
 def plugins(plugins: Plugins = None, debug: Debug = False) -> None:
-    """List every plugin: its kind, its name and where it came from."""
+    """List every plugin: its kind, its name and where it came from (and why one cannot run here)."""
     with _guard(debug):
         from rich.console import Console
+        from rich.markup import escape
         from rich.table import Table
 
         from stackx import registry
@@ -148,7 +149,10 @@ def plugins(plugins: Plugins = None, debug: Debug = False) -> None:
             for entry in reg.entries():
                 lines = (entry.plugin.__doc__ or "").strip().splitlines() if entry.plugin else ["(not loaded)"]
                 doc = lines[0] if lines else ""
-                table.add_row(kind, entry.name, entry.origin, doc)
+                why = registry.unavailable(entry.plugin)
+                if why:
+                    doc = f"unavailable: {why}"
+                table.add_row(kind, entry.name, entry.origin, escape(doc))
         Console().print(table)
 
 

@@ -265,6 +265,7 @@ def _plugin(reg: registry.Registry[Any], section: dict[str, Any], key: str, src:
         raise src.error(prefix, f"missing {key!r}: the {reg.kind} plugin's name")
     try:
         cls = reg.get(name)
+        registry.require_available(reg.kind, name, cls)
     except ConfigError as exc:
         raise src.error(prefix + (key,), exc.message) from None
     rest = {k: v for k, v in section.items() if k != key}

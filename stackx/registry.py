@@ -41,7 +41,10 @@ BUILTIN_MODULES = {
     "solver": ["stackx.solvers.pgs", "stackx.solvers.warm_start", "stackx.solvers.exact",
                "stackx.solvers.baumgarte", "stackx.solvers.split_impulse",
                "stackx.solvers.ngs", "stackx.solvers.soft_step",
-               "stackx.solvers.xpbd", "stackx.solvers.jacobi"],
+               "stackx.solvers.xpbd", "stackx.solvers.jacobi",
+               # engines: their packages are imported only when a run is set up (stackx.solvers.engines.engine)
+               "stackx.solvers.engines.pymunk_engine", "stackx.solvers.engines.box2d_engine",
+               "stackx.solvers.engines.box2d3_engine", "stackx.solvers.engines.mujoco_engine"],
     "renderer": ["stackx.render.check", "stackx.render.stack", "stackx.render.frames"],
     "sink": ["stackx.sinks.keyvalue", "stackx.sinks.metrics"],
 }
@@ -153,6 +156,20 @@ class Registry(Generic[T]):
         for n in names:
             del self._entries[n]
         return names
+
+
+def unavailable(plugin: Any) -> str | None:
+    """Why a plugin cannot run on this machine (an engine whose package is not installed, with the command that
+    installs it), or None; read from its ``unavailable()`` classmethod, without importing anything."""
+    check = getattr(plugin, "unavailable", None)
+    return check() if callable(check) else None
+
+
+def require_available(kind: str, name: str, plugin: Any) -> None:
+    """Refuse a plugin that cannot run here, saying why and how to install what it needs."""
+    why = unavailable(plugin)
+    if why:
+        raise ConfigError(f"{kind} {name!r} cannot run here: {why}")
 
 
 models: Registry[Any] = Registry("model")

@@ -19,8 +19,9 @@ from pydantic import BaseModel, ValidationError
 
 from stackx import registry
 from stackx.bench.case import BenchSection
-from stackx.config import ExperimentSpec, RunSpec, parse_key
+from stackx.config import ExperimentSpec, parse_key
 from stackx.errors import ConfigError
+from stackx.spec import RunSpec
 from stackx.yamlsrc import Path
 
 KNOB_FIELDS = ("iterations", "substeps")  # the usual names of a cost knob, when a solver declares none
@@ -179,9 +180,15 @@ def load_case(spec: ExperimentSpec, names: list[str] | None) -> tuple[Case, dict
 
 
 def chosen_solvers(names: list[str] | None) -> list[type]:
-    """The solver classes to bench: those named (unknown names fail with the known ones), or by default
-    every built-in and installed solver (local plugin files join only when named: they may be plain Python)."""
+    """The solver classes to bench: those named (unknown names, and engines that are not installed, fail with
+    what to do), or by default every built-in and installed solver except those that say otherwise with
+    ``bench_by_default = False`` (the engines: stepped one Python call per step, a tall case takes them
+    minutes) and local plugin files (they may be plain Python): both join when named."""
     if names:
-        return [registry.solvers.get(n) for n in names]
-    return [registry.solvers.get(e.name) for e in registry.solvers.entries()
-            if e.origin == "built-in" or e.origin.startswith("entry point")]
+        chosen = [registry.solvers.get(n) for n in names]
+        for name, cls in zip(names, chosen):
+            registry.require_available("solver", name, cls)
+        return chosen
+    return [cls for e in registry.solvers.entries()
+            if e.origin == "built-in" or e.origin.startswith("entry point")
+            if getattr(cls := registry.solvers.get(e.name), "bench_by_default", True)]

@@ -13,6 +13,7 @@ import math
 import os
 import platform
 import sys
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from importlib import metadata
 from pathlib import Path
@@ -27,6 +28,8 @@ from stackx.bench.sweep import Record
 from stackx.criteria import NAMES
 from stackx.models.column.measures import MOTION_WINDOW, STILL
 from stackx.outdir import OutputDir
+
+PER_CALL_MARK = "*"  # after an engine's µs/step: timed one step per call, the only way it can be stepped
 
 DEFINITIONS = {
     "holds": "in the final state every contact (the floor's included) overlaps by at most max_depth <= "
@@ -62,6 +65,10 @@ DEFINITIONS = {
                    "configs",
     "us_per_call": "the same, one step per call, as a game loop or an engine bound to Python is stepped: the "
                    "figure to set beside pymunk, Box2D or MuJoCo",
+    "one_step_per_call": "an engine (pymunk, Box2D, MuJoCo) steps once per Python call and has no way to take "
+                         "many steps in one, so it is timed per call only and its µs/step is its µs/call, marked "
+                         f"'{PER_CALL_MARK}'; it includes copying the bodies' heights and velocities back into the "
+                         "column and the column's monitors after every step",
     "knob": "each solver's cost knob (its 'knob' attribute, else its iterations or substeps parameter) runs at "
             "the values of bench.knob (or bench.knobs for that solver); the config's own solver also runs at "
             "the config's own value; a solver without a knob runs once",
@@ -114,9 +121,13 @@ def machine() -> dict[str, Any]:
             "cpus": os.cpu_count(), "python": sys.version.split()[0], "compiled_kernels": kernel.enabled()}
 
 
-def versions() -> dict[str, str]:
-    """stackx, Python and every dependency, as the manifest records them, and matplotlib, which draws the plots."""
-    return {"stackx": __version__, **manifest.versions(), "matplotlib": metadata.version("matplotlib")}
+def versions(results: Sequence[CaseResult] = ()) -> dict[str, str]:
+    """stackx, Python and every dependency, as the manifest records them, matplotlib, which draws the plots, and
+    the package of every engine benched (its numbers are that version's)."""
+    engines = sorted({d for res in results for p in res.case.plans
+                      if (d := getattr(p.solver_cls, "distribution", None))})
+    return {"stackx": __version__, **manifest.versions(), "matplotlib": metadata.version("matplotlib"),
+            **{d: metadata.version(d) for d in engines}}
 
 
 def _case_doc(res: CaseResult) -> dict[str, Any]:
@@ -140,7 +151,7 @@ def bench_json(results: list[CaseResult], command: str, wall_seconds: float) -> 
     """Every record of every case, with the machine, versions, definitions and the stability matrix."""
     all_records = [r for res in results for r in res.records]
     doc = {
-        "command": command, "wall_seconds": wall_seconds, "machine": machine(), "versions": versions(),
+        "command": command, "wall_seconds": wall_seconds, "machine": machine(), "versions": versions(results),
         "definitions": DEFINITIONS,
         "cases": [_case_doc(res) for res in results],
         "matrix": {s: {c: cell.as_dict() for c, cell in row.items()} for s, row in matrix(all_records).items()},
@@ -191,6 +202,12 @@ def _e(text: object) -> str:
 def number(value: float | None, fmt: str = ".3g") -> str:
     """A measure for a table; ``-`` where there is none."""
     return "-" if value is None else format(value, fmt)
+
+
+def step_time(rec: Record) -> str:
+    """A record's µs/step for a table; an engine's, which is its µs/call, marked (see DEFINITIONS)."""
+    text = number(rec.us_per_step, ".2f")
+    return text + PER_CALL_MARK if rec.us_per_step is not None and rec.timing.get("one_step_per_call") else text
 
 
 def _table(head: list[str], rows: list[list[str]], cls: str = "") -> str:
@@ -267,7 +284,7 @@ def _records_html(res: CaseResult) -> str:
     for r in case_records(res.records):
         f = shown(r)
         line = [_td(r.solver, "l"), _td(f"{r.knob} {r.value}" if r.knob else "-", "l"),
-                _td(number(r.us_per_step, ".2f")), _td(number(r.us_per_call, ".2f")),
+                _td(step_time(r)), _td(number(r.us_per_call, ".2f")),
                 _td(f["error"] if not r.reference else "reference"), _td(f["error_max"]),
                 _td(f["worst_step"])]
         line += [_td(f[k]) for k in ("max_depth", "max_gap", "peak_depth", "reach", "top_rest_error", "rms_motion",
@@ -276,7 +293,11 @@ def _records_html(res: CaseResult) -> str:
             v = r.criteria[name]
             line.append(_td("pass" if v["passed"] else f"fail: {v['failing']}", "pass" if v["passed"] else "fail"))
         rows.append(line)
-    return _table(head, rows)
+    note = ""
+    if any(r.timing.get("one_step_per_call") for r in res.records):
+        note = (f"<p class=note>{_e(PER_CALL_MARK)} an engine, stepped once per Python call: its µs/step is its "
+                "µs/call (see one_step_per_call).</p>")
+    return _table(head, rows) + note
 
 
 def _equal_cost_html(res: CaseResult) -> str:
@@ -335,7 +356,7 @@ def _case_html(res: CaseResult, plot: str | None) -> str:
 
 
 def report_html(results: list[CaseResult], plots: dict[str, str], command: str, wall_seconds: float) -> str:
-    mach, vers = machine(), versions()
+    mach, vers = machine(), versions(results)
     claims = [f"<li><b>{_e(res.name)}</b>: {_e(res.claim['text'])}</li>" for res in results if res.claim]
     defs = "".join(f"<li><b>{_e(k)}</b>: {_e(v)}</li>" for k, v in DEFINITIONS.items())
     blown = [r for res in results for r in res.records if r.blew_up]

@@ -7,7 +7,7 @@ from rich.markup import escape
 from rich.table import Table
 
 from stackx.bench.compare import case_records, matrix
-from stackx.bench.report import CaseResult, number, shown
+from stackx.bench.report import PER_CALL_MARK, CaseResult, number, shown, step_time
 from stackx.criteria import NAMES
 
 _KNOB = {"iterations": "it", "substeps": "sub"}
@@ -23,12 +23,15 @@ def case_table(res: CaseResult) -> Table:
     for r in case_records(res.records):
         f = shown(r)
         knob = f"{_KNOB.get(r.knob, r.knob)} {r.value}" if r.knob else "-"
-        row = [r.solver, knob, number(r.us_per_step, ".2f"), number(r.us_per_call, ".2f"), f["error"]]
+        row = [r.solver, knob, step_time(r), number(r.us_per_call, ".2f"), f["error"]]
         row += [f[k] for k in ("max_depth", "max_gap", "top_rest_error", "rms_motion", "launch")]
         for name in NAMES:
             v = r.criteria[name]
             row.append("[green]pass[/]" if v["passed"] else "[red]fail[/]")
         table.add_row(*row)
+    if any(r.timing.get("one_step_per_call") for r in res.records):
+        table.caption = f"{PER_CALL_MARK} an engine, stepped once per Python call: µs/step is its µs/call"
+        table.caption_justify = "left"
     return table
 
 

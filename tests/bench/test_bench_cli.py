@@ -86,7 +86,9 @@ def doc(bench_out: Path) -> dict:
 
 
 def builtin_solvers() -> set[str]:
-    return {e.name for e in registry.solvers.entries() if e.origin == "built-in"}
+    """What a bench runs by default: the built-in solvers but the engines, which join when named."""
+    return {e.name for e in registry.solvers.entries()
+            if e.origin == "built-in" and getattr(e.plugin, "bench_by_default", True)}
 
 
 def test_every_builtin_solver_runs_every_case(doc: dict) -> None:

@@ -10,6 +10,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+import pytest
 
 from stackx import registry
 from stackx.models.column.state import ColumnState
@@ -23,9 +24,11 @@ SLOP = 0.01  # the lab's slop: the hard cases judge every solver's depth against
 MOTION_WINDOW = 60
 
 
-def solver_names() -> list[str]:
-    """Every registered solver: built in, installed and local."""
-    return [entry.name for entry in registry.solvers.entries()]
+def solver_names() -> list[Any]:
+    """Every registered solver: built in, installed and local; one that cannot run here (an engine whose
+    package is not installed) is skipped, saying how to install it."""
+    return [pytest.param(e.name, marks=pytest.mark.skip(reason=why)) if (why := registry.unavailable(e.plugin))
+            else e.name for e in registry.solvers.entries()]
 
 
 def column(ys: list[float], masses: list[float] | None = None, vs: list[float] | None = None,

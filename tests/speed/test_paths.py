@@ -27,6 +27,7 @@ from stackx.runner import run_experiment
 from stackx.session import run_all
 from stackx.models.column.state import ColumnState
 from tests.conftest import CONFIGS, REPO
+from tests.solvers.columns import solver_names
 from tests.speed.artifacts import differences
 
 HARD = sorted((CONFIGS / "hard").glob("*.yaml"))
@@ -34,7 +35,7 @@ SMALL_STEPS = 240  # steps of a shrunk hard case (more when a scene event comes 
 SMALL_BOXES = 30  # boxes of a shrunk tall column
 
 registry.load_local_plugins(REPO / "plugins")
-SOLVERS = [entry.name for entry in registry.solvers.entries()]
+SOLVERS = solver_names()  # engines that are not installed are skipped, with the command that installs them
 
 
 # --------------------------------------------------------------------------------- the lab, as a user runs it
