@@ -21,8 +21,10 @@ from stackx import __version__
 if TYPE_CHECKING:
     from stackx.config import ExperimentSpec
 
-app = typer.Typer(add_completion=False, no_args_is_help=True, pretty_exceptions_enable=False,
-                  help="Run, compare and stress-test rigid-body contact solvers from YAML configs.")
+app = typer.Typer(no_args_is_help=True, pretty_exceptions_enable=False,
+                  context_settings={"help_option_names": ["-h", "--help"]},  # every command, inherited
+                  help="Run, compare and stress-test rigid-body contact solvers from YAML configs.",
+                  epilog="Example: stackx init lab && stackx run lab/configs/")
 
 Paths = Annotated[list[str], typer.Argument(help="YAML config files, or folders whose *.yaml files run in name order")]
 Sets = Annotated[Optional[list[str]], typer.Option("--set", help="override a config value: key.path=value (YAML)")]
@@ -86,7 +88,19 @@ def _warn_failed_plugins() -> None:
                    f"{failure.message}", err=True)
 
 
-@app.command()
+@app.command(epilog="Example: stackx init lab && stackx run lab/configs/")
+def init(folder: Annotated[Path, typer.Argument(help="folder to write configs/ and plugins/ into (made if "
+                                                    "missing)")] = Path("."),
+         debug: Debug = False) -> None:
+    """Copy the lab, hard-case and example configs and the example plugin into a folder; never overwrites."""
+    with _guard(debug):
+        from stackx.starter import init_folder, summary
+
+        for line in summary(folder, init_folder(folder)):
+            typer.echo(line)
+
+
+@app.command(epilog="Example: stackx run configs/ --out out --set solver.iterations=20")
 def run(paths: Paths, out: Annotated[Path, typer.Option("--out", "-o", help="output folder")] = Path("out"),
         sets: Sets = None, plugins: Plugins = None, debug: Debug = False,
         quiet: Annotated[bool, typer.Option("--quiet", "-q", help="no progress bar or table")] = False,
@@ -99,7 +113,7 @@ def run(paths: Paths, out: Annotated[Path, typer.Option("--out", "-o", help="out
         run_all(_load_all(paths, sets, plugins), out, quiet=quiet, wide=wide)
 
 
-@app.command()
+@app.command(epilog="Example: stackx bench configs/hard/tall-20.yaml --solvers pgs,exact")
 def bench(paths: Paths,
           solvers: Annotated[Optional[str], typer.Option(
               "--solvers", help="comma-separated solver names (default: every built-in and installed solver; "
@@ -121,7 +135,7 @@ def bench(paths: Paths,
         run_bench(paths, names, out, plugins, quiet, command=" ".join(["stackx", *sys.argv[1:]]), sets=sets)
 
 
-@app.command()
+@app.command(epilog="Example: stackx validate configs/ configs/hard/")
 def validate(paths: Paths, sets: Sets = None, plugins: Plugins = None, debug: Debug = False) -> None:
     """Check configs (and the plugins they name) without running anything."""
     with _guard(debug):
@@ -129,7 +143,7 @@ def validate(paths: Paths, sets: Sets = None, plugins: Plugins = None, debug: De
             typer.echo(f"ok  {spec.file}: {len(spec.runs)} run(s), {len(spec.outputs)} output(s)")
 
 
-@app.command()
+@app.command(epilog="Example: stackx plugins --plugins plugins/")
 def plugins(plugins: Plugins = None, debug: Debug = False) -> None:
     """List every plugin: its kind, its name and where it came from (and why one cannot run here)."""
     with _guard(debug):
@@ -156,7 +170,7 @@ def plugins(plugins: Plugins = None, debug: Debug = False) -> None:
         Console().print(table)
 
 
-@app.command()
+@app.command(epilog="Example: stackx schema --out stackx.schema.json")
 def schema(plugins: Plugins = None, debug: Debug = False,
            out: Annotated[Optional[Path], typer.Option("--out", "-o", help="write to a file")] = None) -> None:
     """Print the JSON Schema of a config, with every installed plugin's parameters (for YAML editors)."""
@@ -174,7 +188,7 @@ def schema(plugins: Plugins = None, debug: Debug = False,
             out.write_text(text)
 
 
-@app.command()
+@app.command(epilog="Example: stackx verify out configs/")
 def verify(folder: Annotated[Path, typer.Argument(help="output folder holding a manifest.json")] = Path("out"),
            configs: Annotated[Optional[list[str]], typer.Argument(
                help="the configs to run again (files, or folders of *.yaml), each for the experiment of its name",
@@ -188,8 +202,6 @@ def verify(folder: Annotated[Path, typer.Argument(help="output folder holding a 
 
     Only what you name runs: the CONFIGS (with the plugins 'stackx run CONFIGS' would import), or with --trust
     what the folder itself holds.
-
-    Example: stackx run configs/ --out out && stackx verify out configs/
     """
     with _guard(debug):
         from stackx.verify import verify as verify_folder
@@ -198,7 +210,7 @@ def verify(folder: Annotated[Path, typer.Argument(help="output folder holding a 
             raise typer.Exit(1)
 
 
-@app.command()
+@app.command(epilog="Example: stackx serve out --port 8080")
 def serve(folder: Annotated[Path, typer.Argument(help="folder to serve")] = Path("out"),
           port: Annotated[int, typer.Option(help="TCP port")] = 8080,
           host: Annotated[str, typer.Option(help="address to listen on")] = "127.0.0.1",

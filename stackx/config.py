@@ -17,7 +17,7 @@ from fractions import Fraction
 from pathlib import Path as FsPath
 from typing import Annotated, Any, NamedTuple
 
-from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, ValidationError, field_validator
+from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, StringConstraints, ValidationError, field_validator
 
 from stackx import registry, sizing
 from stackx.bench.case import BenchSection
@@ -29,11 +29,13 @@ from stackx.yamlsrc import Mark, Path, Source, dotted, load_file, load_text
 
 RUN_KEYS = ("scene", "solver", "gravity", "dt", "steps")
 NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
+FRACTION = r"^\s*\d+(\.\d*)?\s*/\s*\d+(\.\d*)?\s*$"  # dt: 1/60; also the schema's pattern (editors)
+StepSize = Annotated[float, Field(gt=0, le=10.0, allow_inf_nan=False)]
 
 
 def _fraction(value: Any) -> Any:
     """Accept ``dt: 1/60`` as well as a number, so a step size can be written as it is thought of."""
-    if isinstance(value, str) and re.fullmatch(r"\s*\d+(\.\d*)?\s*/\s*\d+(\.\d*)?\s*", value):
+    if isinstance(value, str) and re.fullmatch(FRACTION, value):
         num, den = (Fraction(part.strip()) for part in value.split("/"))
         if den == 0:
             raise ValueError("division by zero")
@@ -58,8 +60,9 @@ class ExperimentModel(BaseModel):
     scene: dict[str, Any] | None = Field(None, description="the scene plugin: {name: column, ...its params}")
     solver: dict[str, Any] | None = Field(None, description="the solver plugin: {name: pgs, ...its params}")
     gravity: float = Field(-9.8, allow_inf_nan=False, description="vertical acceleration (m/s^2, up positive)")
-    dt: Annotated[float, BeforeValidator(_fraction)] = Field(
-        1 / 60, gt=0, le=10.0, allow_inf_nan=False, description="step size (s); a fraction like 1/60 is accepted")
+    dt: Annotated[StepSize, BeforeValidator(_fraction, json_schema_input_type=StepSize | Annotated[
+        str, StringConstraints(pattern=FRACTION)])] = Field(
+        1 / 60, description="step size (s); a fraction like 1/60 is accepted")
     steps: int = Field(0, ge=0, le=100_000_000, description="number of steps to run")
     runs: dict[str, dict[str, Any]] | None = Field(
         None, description="named runs, each a mapping of dotted keys to override (e.g. solver.iterations: 4)")

@@ -16,15 +16,16 @@ CONFIGS = REPO / "configs"
 Cli = Callable[..., subprocess.CompletedProcess[str]]
 
 
-@pytest.fixture
-def cli() -> Cli:
+def run_cli(*args: object, cwd: Path = REPO, env: dict[str, str] | None = None,
+            timeout: float = 120) -> subprocess.CompletedProcess[str]:
     """Run ``python -m stackx ARGS`` in a subprocess and return the completed process (text output). The
     package is this checkout's, from any working folder (not whichever copy is installed)."""
     path = os.pathsep.join(p for p in (str(REPO), os.environ.get("PYTHONPATH")) if p)
+    return subprocess.run([sys.executable, "-m", "stackx", *map(str, args)], cwd=cwd, capture_output=True,
+                          text=True, timeout=timeout, env={**os.environ, "PYTHONPATH": path, **(env or {})})
 
-    def run(*args: str, cwd: Path = REPO, env: dict[str, str] | None = None,
-            timeout: float = 120) -> subprocess.CompletedProcess[str]:
-        return subprocess.run([sys.executable, "-m", "stackx", *map(str, args)], cwd=cwd, capture_output=True,
-                              text=True, timeout=timeout, env={**os.environ, "PYTHONPATH": path, **(env or {})})
 
-    return run
+@pytest.fixture
+def cli() -> Cli:
+    """``run_cli`` as a fixture."""
+    return run_cli

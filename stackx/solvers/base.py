@@ -43,7 +43,8 @@ def _off(value: Any) -> Any:
     return None if value is False or value == "off" else value
 
 
-LabCorrection = Annotated[Correction | None, BeforeValidator(_off)]
+LabCorrection = Annotated[Correction | None, BeforeValidator(
+    _off, json_schema_input_type=Correction | Literal["off", False] | None)]
 """The lab's position correction as a params field: ``{slop, percent}``, or ``off``/null for none."""
 
 

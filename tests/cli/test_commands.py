@@ -108,3 +108,66 @@ def test_a_missing_plugins_folder_is_refused(cli: Cli, tmp_path: Path, command: 
     done = cli(command, *args, "--plugins", tmp_path / "nowhere")
     assert done.returncode == 2, done.stdout
     assert done.stderr.strip() == f"error: {tmp_path / 'nowhere'}: --plugins: no such folder"
+
+
+def _commands() -> list[str]:
+    import typer.main
+
+    from stackx.cli import app
+
+    return sorted(typer.main.get_command(app).commands)  # type: ignore[attr-defined]
+
+
+def _example(args: list[str]) -> list[list[str]]:
+    """The example invocations printed by ``stackx ARGS``'s help, each split into its words."""
+    import re
+    import shlex
+
+    from typer.testing import CliRunner
+
+    from stackx.cli import app
+
+    done = CliRunner().invoke(app, args, prog_name="stackx", env={"COLUMNS": "80"})
+    assert done.exit_code == 0, done.output
+    examples = [m.group(1) for m in re.finditer(r"Example: (stackx .*?)\s*$", done.output, re.MULTILINE)]
+    assert len(examples) == 1, done.output
+    return [shlex.split(part) for part in examples[0].split("&&")]
+
+
+@pytest.mark.parametrize("command", [None, *_commands()])
+@pytest.mark.parametrize("flag", ["-h", "--help"])
+def test_every_help_shows_an_example_that_parses(command: str | None, flag: str) -> None:
+    """``-h`` is ``--help`` everywhere, and each help ends on an invocation of that command that its own
+    parser accepts (options that exist, values of the right type)."""
+    import typer.main
+
+    from stackx.cli import app
+
+    group = typer.main.get_command(app)
+    invocations = _example([flag] if command is None else [command, flag])
+    assert all(words[0] == "stackx" for words in invocations)
+    if command is not None:
+        assert invocations[0][1] == command
+    for words in invocations:
+        root = group.make_context("stackx", words[1:])
+        name, sub, rest = group.resolve_command(root, words[1:])  # type: ignore[attr-defined]
+        assert sub is not None and name in _commands()
+        sub.make_context(name, rest, parent=root)  # raises click.UsageError on an unknown option or bad value
+
+
+def test_shell_completion_completes_commands_and_options() -> None:
+    """The completion a shell asks for (``stackx --install-completion`` sets it up) names commands and options."""
+    from typer.testing import CliRunner
+
+    from stackx.cli import app
+
+    def complete(line: str) -> list[str]:
+        words = line.split(" ")
+        done = CliRunner().invoke(app, [], prog_name="stackx", env={
+            "_STACKX_COMPLETE": "complete_bash", "COMP_WORDS": line, "COMP_CWORD": str(len(words) - 1)})
+        assert done.exit_code == 0, done.output
+        return done.output.split()
+
+    assert complete("stackx in") == ["init"]
+    assert set(complete("stackx ")) == set(_commands())
+    assert "--solvers" in complete("stackx bench --so")
