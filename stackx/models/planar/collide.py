@@ -1,0 +1,186 @@
+"""Contact manifolds of the planar model: which points of two boxes (or a box and the ground) touch.
+
+A contact is a point with a normal from body ``a`` to body ``b`` (``a`` is -1 for the ground) and a depth
+(positive when overlapping). Points are kept while they are within ``margin`` of touching (negative depth),
+so that a solver can stop a box that would reach its neighbour within the step instead of after it
+(Box2D's speculative distance).
+
+Box on box works as engines do (Box2D's ``b2CollidePolygons`` is the model; this code is written from the
+method, not from it): of the eight faces of the two boxes, the one whose outward normal separates the boxes
+most (the axis of least penetration) is the **reference face**; the face of the other box most opposed to
+it is the **incident face**; the incident face's edge is clipped to the width of the reference face, and
+each of its (at most two) ends that lies within ``margin`` of the reference face is a contact point, placed
+half-way between the two surfaces. A box resting flat on another gets two points, one at each end of
+their overlap, which is what keeps it from rocking; a box on a corner gets one.
+
+``feature`` identifies a point across steps (reference face, incident face, end of the edge), so a solver
+can carry its impulse from one step to the next (warm starting) while the same corners touch.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from stackx.kernel import kernel
+
+GROUND = -1
+REFERENCE_BIAS = 0.98  # box b becomes the reference only when clearly better: keeps the choice from flipping
+ABSOLUTE_BIAS = 0.001  # m, added to the bias for faces nearly equal (the stack's resting contact)
+
+
+@kernel
+def face_axis(x: float, y: float, c: float, s: float, hx: float, hy: float, face: int) -> tuple[float, float, float, float]:
+    """Outward normal ``(nx, ny)`` of face ``face`` (0: +x, 1: +y, 2: -x, 3: -y of the box's own frame), the
+    half-extent along it and the half-width of the face."""
+    lx = 1.0 if face == 0 else (-1.0 if face == 2 else 0.0)
+    ly = 1.0 if face == 1 else (-1.0 if face == 3 else 0.0)
+    extent = hx if face % 2 == 0 else hy
+    width = hy if face % 2 == 0 else hx
+    return c * lx - s * ly, s * lx + c * ly, extent, width
+
+
+@kernel
+def separation(xa: float, ya: float, ca: float, sa: float, hxa: float, hya: float,
+               xb: float, yb: float, cb: float, sb: float, hxb: float, hyb: float) -> tuple[float, int]:
+    """The largest separation of box b from a face of box a (negative: the overlap along that face's normal)
+    and that face: the deepest corner of b below each face plane of a, best face kept."""
+    best, best_face = -np.inf, 0
+    for face in range(4):
+        nx, ny, extent, _ = face_axis(xa, ya, ca, sa, hxa, hya, face)
+        low = np.inf
+        for corner in range(4):
+            px = hxb if corner == 0 or corner == 3 else -hxb
+            py = hyb if corner < 2 else -hyb
+            cx = xb + cb * px - sb * py
+            cy = yb + sb * px + cb * py
+            d = (cx - xa) * nx + (cy - ya) * ny - extent
+            if d < low:
+                low = d
+        if low > best:
+            best, best_face = low, face
+    return best, best_face
+
+
+@kernel
+def add_point(n: int, a: int, b: int, nx: float, ny: float, px: float, py: float, depth: float, feature: int,
+              body_a: np.ndarray, body_b: np.ndarray, normal: np.ndarray, point: np.ndarray, depths: np.ndarray,
+              features: np.ndarray) -> int:
+    """Store one point at index ``n`` (if there is room) and return the new count; past the room the count
+    still grows, so the caller sees that its arrays were too small."""
+    if n < body_a.shape[0]:
+        body_a[n], body_b[n] = a, b
+        normal[n, 0], normal[n, 1] = nx, ny
+        point[n, 0], point[n, 1] = px, py
+        depths[n], features[n] = depth, feature
+    return n + 1
+
+
+@kernel
+def ground_points(i: int, x: float, y: float, angle: float, hx: float, hy: float, margin: float, n: int,
+                  body_a: np.ndarray, body_b: np.ndarray, normal: np.ndarray, point: np.ndarray,
+                  depths: np.ndarray, features: np.ndarray) -> int:
+    """The (at most two) lowest corners of box ``i`` within ``margin`` of the ground, normal straight up."""
+    c, s = np.cos(angle), np.sin(angle)
+    first, second = -1, -1
+    h1, h2 = np.inf, np.inf
+    for corner in range(4):
+        px = hx if corner == 0 or corner == 3 else -hx
+        py = hy if corner < 2 else -hy
+        cy = y + s * px + c * py
+        if cy < h1:
+            second, h2 = first, h1
+            first, h1 = corner, cy
+        elif cy < h2:
+            second, h2 = corner, cy
+    for corner in (first, second):
+        px = hx if corner == 0 or corner == 3 else -hx
+        py = hy if corner < 2 else -hy
+        cx = x + c * px - s * py
+        cy = y + s * px + c * py
+        if cy <= margin:
+            n = add_point(n, GROUND, i, 0.0, 1.0, cx, 0.5 * cy, -cy, corner, body_a, body_b, normal, point,
+                          depths, features)
+    return n
+
+
+@kernel
+def box_points(i: int, j: int, x: np.ndarray, y: np.ndarray, angle: np.ndarray, hx: np.ndarray, hy: np.ndarray,
+               margin: float, n: int, body_a: np.ndarray, body_b: np.ndarray, normal: np.ndarray,
+               point: np.ndarray, depths: np.ndarray, features: np.ndarray) -> int:
+    """The manifold of boxes ``i`` and ``j`` (normal from i to j): reference face, incident face, clipping."""
+    ci, si, cj, sj = np.cos(angle[i]), np.sin(angle[i]), np.cos(angle[j]), np.sin(angle[j])
+    sep_i, face_i = separation(x[i], y[i], ci, si, hx[i], hy[i], x[j], y[j], cj, sj, hx[j], hy[j])
+    if sep_i > margin:
+        return n
+    sep_j, face_j = separation(x[j], y[j], cj, sj, hx[j], hy[j], x[i], y[i], ci, si, hx[i], hy[i])
+    if sep_j > margin:
+        return n
+    flip = sep_j > REFERENCE_BIAS * sep_i + ABSOLUTE_BIAS
+    r, k = (j, i) if flip else (i, j)  # reference and incident box
+    face = face_j if flip else face_i
+    cr, sr, ck, sk = (cj, sj, ci, si) if flip else (ci, si, cj, sj)
+    nx, ny, extent, width = face_axis(x[r], y[r], cr, sr, hx[r], hy[r], face)
+    tx, ty = -ny, nx
+    incident, lowest = 0, np.inf
+    for f in range(4):
+        fx, fy, _, _ = face_axis(x[k], y[k], ck, sk, hx[k], hy[k], f)
+        d = fx * nx + fy * ny
+        if d < lowest:
+            incident, lowest = f, d
+    fx, fy, e, w = face_axis(x[k], y[k], ck, sk, hx[k], hy[k], incident)
+    gx, gy = -fy, fx
+    ends = np.empty((2, 2))
+    ends[0, 0], ends[0, 1] = x[k] + fx * e + gx * w, y[k] + fy * e + gy * w
+    ends[1, 0], ends[1, 1] = x[k] + fx * e - gx * w, y[k] + fy * e - gy * w
+    u0 = (ends[0, 0] - x[r]) * tx + (ends[0, 1] - y[r]) * ty
+    u1 = (ends[1, 0] - x[r]) * tx + (ends[1, 1] - y[r]) * ty
+    for bound in (-width, width):  # clip the edge to the reference face's width, one side at a time
+        out0 = u0 < bound if bound < 0 else u0 > bound
+        out1 = u1 < bound if bound < 0 else u1 > bound
+        if out0 and out1:
+            return n
+        if out0 or out1:
+            t = (bound - u0) / (u1 - u0)
+            px, py = ends[0, 0] + t * (ends[1, 0] - ends[0, 0]), ends[0, 1] + t * (ends[1, 1] - ends[0, 1])
+            end = 0 if out0 else 1
+            ends[end, 0], ends[end, 1] = px, py
+            if out0:
+                u0 = bound
+            else:
+                u1 = bound
+    sign = -1.0 if flip else 1.0  # the normal goes from i to j
+    for end in range(2):
+        sep = (ends[end, 0] - x[r]) * nx + (ends[end, 1] - y[r]) * ny - extent
+        if sep <= margin:
+            feature = (1 if flip else 0) * 64 + face * 16 + incident * 4 + end
+            n = add_point(n, i, j, sign * nx, sign * ny, ends[end, 0] - 0.5 * sep * nx, ends[end, 1] - 0.5 * sep * ny,
+                          -sep, feature, body_a, body_b, normal, point, depths, features)
+    return n
+
+
+@kernel
+def collide(x: np.ndarray, y: np.ndarray, angle: np.ndarray, hx: np.ndarray, hy: np.ndarray, static: np.ndarray,
+            margin: float, body_a: np.ndarray, body_b: np.ndarray, normal: np.ndarray, point: np.ndarray,
+            depths: np.ndarray, features: np.ndarray) -> int:
+    """Every contact point of one world (one batch row's arrays): boxes on the ground, then pairs of boxes
+    whose bounding boxes come within ``margin``, in index order; returns the number of points (more than
+    the arrays hold when they were too small). Two static boxes never collide."""
+    bodies = x.shape[0]
+    n = 0
+    reach_x = np.empty(bodies)
+    reach_y = np.empty(bodies)
+    for i in range(bodies):
+        c, s = abs(np.cos(angle[i])), abs(np.sin(angle[i]))
+        reach_x[i] = c * hx[i] + s * hy[i]
+        reach_y[i] = s * hx[i] + c * hy[i]
+        if not static[i] and y[i] - reach_y[i] <= margin:
+            n = ground_points(i, x[i], y[i], angle[i], hx[i], hy[i], margin, n, body_a, body_b, normal, point,
+                              depths, features)
+    for i in range(bodies):
+        for j in range(i + 1, bodies):
+            if static[i] and static[j]:
+                continue
+            if abs(x[i] - x[j]) > reach_x[i] + reach_x[j] + margin or abs(y[i] - y[j]) > reach_y[i] + reach_y[j] + margin:
+                continue
+            n = box_points(i, j, x, y, angle, hx, hy, margin, n, body_a, body_b, normal, point, depths, features)
+    return n
