@@ -42,7 +42,7 @@ BUILTIN_MODULES = {
                "stackx.solvers.baumgarte", "stackx.solvers.split_impulse",
                "stackx.solvers.ngs", "stackx.solvers.soft_step",
                "stackx.solvers.xpbd", "stackx.solvers.jacobi"],
-    "renderer": ["stackx.render.check", "stackx.render.stack", "stackx.render.frames"],
+    "renderer": ["stackx.render.check", "stackx.render.stack", "stackx.render.frames", "stackx.render.compare"],
     "sink": ["stackx.sinks.keyvalue", "stackx.sinks.metrics"],
 }
 
