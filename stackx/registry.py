@@ -45,7 +45,8 @@ BUILTIN_MODULES = {
                # engines: their packages are imported only when a run is set up (stackx.solvers.engines.engine)
                "stackx.solvers.engines.pymunk_engine", "stackx.solvers.engines.box2d_engine",
                "stackx.solvers.engines.box2d3_engine", "stackx.solvers.engines.mujoco_engine"],
-    "renderer": ["stackx.render.check", "stackx.render.stack", "stackx.render.frames"],
+    "renderer": ["stackx.render.check", "stackx.render.stack", "stackx.render.frames",
+                 "stackx.render.compare"],
     "sink": ["stackx.sinks.keyvalue", "stackx.sinks.metrics"],
 }
 

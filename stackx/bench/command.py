@@ -14,7 +14,8 @@ from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
 from stackx.bench.plan import Case, load_case
-from stackx.bench.report import CaseResult, write
+from stackx.bench.report import write
+from stackx.bench.result import CaseResult
 from stackx.bench.sweep import run_case, work
 from stackx.bench.tables import print_all
 from stackx.config import config_files, load

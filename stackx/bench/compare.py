@@ -1,12 +1,17 @@
-"""Comparisons across solvers: the stability matrix, the speed-against-error front, equal-cost winners.
+"""Comparisons across solvers: the stability matrix, the speed-against-error front, equal-cost winners, and
+the run of each solver that a report shows.
 
 Only the case's own settings count here (a claim's baseline runs are compared in ``claims``). Speed and
-error are compared only between runs that neither blew up nor were crushed, and never with the reference:
-``exact`` is what the error is measured against, so its error is zero by definition, not by merit.
+error are drawn for every run that neither blew up nor was crushed, but fronts and winners are chosen only
+among runs that **passed** the case: a run that is fast and accurate step by step yet leaves the column sunk,
+moving or launched is no answer to the case, and letting it win would recommend a setting that fails. The
+reference never competes: ``exact`` is what the error is measured against, so its error is zero by
+definition, not by merit (the report shows its time beside the winners instead).
 """
 
 from __future__ import annotations
 
+import re
 from collections.abc import Iterable
 from dataclasses import dataclass
 from typing import Any
@@ -95,16 +100,22 @@ def matrix(records: Iterable[Record]) -> dict[str, dict[str, Cell]]:
 
 
 def measured(records: Iterable[Record]) -> list[Record]:
-    """Records to compare on speed and error: timed, with an error against the exact solver, neither blown up
-    nor crushed, and not the reference itself."""
+    """Records to draw on speed and error: timed, with an error against the exact solver, neither blown up
+    nor crushed, and not the reference itself (passed or not)."""
     return [r for r in case_records(records) if r.us_per_step is not None and r.error.get("rms") is not None
             and not r.broke and not r.reference]
 
 
+def contenders(records: Iterable[Record]) -> list[Record]:
+    """Records that compete for fronts and winners: measured (see ``measured``) and passed the case."""
+    return [r for r in measured(records) if r.passed]
+
+
 def pareto(records: Iterable[Record]) -> list[Record]:
-    """The speed-against-error front: no other record is both faster and at least as accurate."""
+    """The speed-against-error front of the runs that passed: no other such run is both faster and at least as
+    accurate."""
     front, best = [], float("inf")
-    for r in sorted(measured(records), key=lambda r: (r.us_per_step, r.error["rms"])):
+    for r in sorted(contenders(records), key=lambda r: (r.us_per_step, r.error["rms"])):
         if r.error["rms"] < best:  # type: ignore[operator]
             front.append(r)
             best = r.error["rms"]  # type: ignore[assignment]
@@ -112,16 +123,17 @@ def pareto(records: Iterable[Record]) -> list[Record]:
 
 
 def cheapest(records: Iterable[Record], target: float) -> dict[str, Record]:
-    """Per solver, the fastest record whose error is at most ``target``."""
+    """Per solver, the fastest run that passed with an error of at most ``target``."""
     out: dict[str, Record] = {}
-    for r in sorted(measured(records), key=lambda r: r.us_per_step):  # type: ignore[arg-type, return-value]
+    for r in sorted(contenders(records), key=lambda r: r.us_per_step):  # type: ignore[arg-type, return-value]
         if r.error["rms"] <= target:
             out.setdefault(r.solver, r)
     return out
 
 
 def equal_cost(records: list[Record], targets: Iterable[float] = TARGETS) -> list[dict[str, Any]]:
-    """For each error level: which solver reaches it with the fewest microseconds per step, and the others'."""
+    """For each error level: which solver reaches it with the fewest microseconds per step in a run that passed,
+    and the others'."""
     rows = []
     for target in targets:
         by_solver = cheapest(records, target)
@@ -131,3 +143,55 @@ def equal_cost(records: list[Record], targets: Iterable[float] = TARGETS) -> lis
                      "solvers": [{"solver": r.solver, "knob": r.knob, "value": r.value, "us_per_step": r.us_per_step,
                                   "error": r.error["rms"]} for r in ranked]})
     return rows
+
+
+def by_solver(records: Iterable[Record]) -> dict[str, list[Record]]:
+    """The case's own records of each solver, in the order the solvers come, each by knob value."""
+    out: dict[str, list[Record]] = {}
+    for r in case_records(records):
+        out.setdefault(r.solver, []).append(r)
+    return {solver: sorted(recs, key=lambda r: r.value or 0) for solver, recs in out.items()}
+
+
+def chosen(records: list[Record]) -> Record:
+    """The run of one solver on one case that a report shows against time and in its summary: the smallest
+    knob value that passed (the cheapest setting that answers the case), else the largest tried (the most
+    effort; the stability matrix shows its failure too). It depends on the criteria only, never on timings,
+    so two benches of the same configs show the same runs."""
+    recs = sorted(case_records(records), key=lambda r: r.value or 0)
+    return next((r for r in recs if r.passed), recs[-1])
+
+
+SHORT = {"max_depth": "overlaps", "max_gap": "gap", "reach": "crushed", "rms_motion": "moving",
+         "launch": "launched"}  # a failed check in a word; |top_rest_error| is 'sunk' or 'high' by its sign
+
+
+def why(rec: Record) -> str:
+    """Why a run failed, in a few words: ``overlaps, sunk, moving``; ``blew up at step 40``; ``crushed at step
+    12``. ``failing`` has the values and limits."""
+    if rec.blew_up:
+        step = re.search(r"blew up at step (\d+)", rec.blew_up)
+        return "blew up" + (f" at step {step.group(1)}" if step else "")
+    if rec.crushed:
+        return f"crushed at step {rec.crushed_at}"
+    words = []
+    for verdict in rec.criteria.values():
+        for check in verdict["checks"]:
+            if check["passed"]:
+                continue
+            if check["measure"] == "|top_rest_error|":
+                words.append("sunk" if rec.measures.get("top_rest_error", 0.0) < 0 else "high")
+            else:
+                words.append(SHORT.get(check["measure"], check["measure"]))
+    return ", ".join(dict.fromkeys(words))
+
+
+def _cost(rec: Record) -> float:
+    return rec.us_per_step if rec.us_per_step is not None else float("inf")
+
+
+def outcomes(records: Iterable[Record]) -> list[Record]:
+    """Each solver's shown run (``chosen``): those that passed first, cheapest (microseconds per step) first,
+    then those that failed, in the order the solvers come. The first is the case's answer when it passed."""
+    shown = [chosen(recs) for recs in by_solver(records).values()]
+    return sorted((r for r in shown if r.passed), key=_cost) + [r for r in shown if not r.passed]

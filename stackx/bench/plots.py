@@ -1,61 +1,159 @@
-"""Speed against error, one PNG per case, drawn with matplotlib's Agg backend (no display, no network).
+"""The report's pictures, drawn with matplotlib's Agg backend (no display, no network), as PNG bytes.
 
-matplotlib is imported here only, so nothing but ``stackx bench`` pays for it. Log-log axes: microseconds
-per step across, RMS velocity error against the exact solver up; one line per solver through its knob
-values (labelled), filled markers where the run passed the case and hollow where it failed, and the Pareto
-front (no other run both faster and more accurate) drawn as a grey band with ringed points.
+matplotlib is imported here only, so nothing but ``stackx bench`` pays for it. Every solver has its colour
+from ``stackx.bench.palette`` in every picture.
+
+- **Speed against error**, one per case. Log-log axes: microseconds per step across, RMS velocity error
+  against the exact solver up; one line per solver through its knob values (labelled), filled markers where
+  the run passed the case and hollow where it failed, and the Pareto front of the runs that passed (no
+  other passing run both faster and more accurate) as a grey band with ringed points. The reference is not a
+  point: its error is zero by definition, and drawing it at some floor such as 1e-15 would give most of
+  the height to nothing. It is a dashed vertical line at its time per step. Runs whose error is below
+  ``AS_EXACT`` (rounding: they solved every step as the reference did) sit on a thin band at the bottom
+  of the axis, just under the smallest error above it, so the axis spans only the errors that differ.
+- **Against time**, one per case: two small panels side by side, the top box's height and the largest
+  contact depth, one line per solver at the knob value the summary shows (``compare.chosen``): solid
+  where it passed, dashed where it failed, with the rigid rest height and the depth limit as dotted lines.
 """
 
 from __future__ import annotations
 
 import io
+import math
+from typing import Any
 
-from stackx.bench.compare import measured, pareto
+from stackx.bench.compare import case_records, label, measured, pareto
+from stackx.bench.palette import colour
 from stackx.bench.sweep import Record
 
-FLOOR = 1e-15  # errors below this (the exact solver's own rounding) are drawn at it on the log axis
+AS_EXACT = 1e-12  # m/s: an RMS error below this is the rounding of two ways to the same solve
+DEPTH_FLOOR = 0.01  # share of the depth limit below which a depth is drawn at the bottom of its log axis
 
 
-def speed_error_png(title: str, records: list[Record]) -> bytes | None:
-    """The plot of one case as PNG bytes, or None when no run has both a time and an error."""
-    points = measured(records)
-    if not points:
-        return None
+def _pyplot() -> Any:
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, ax = plt.subplots(figsize=(7.5, 5.0), dpi=100)
+    return plt
+
+
+def _png(fig: Any) -> bytes:
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", metadata={"Software": None})
+    return buf.getvalue()
+
+
+def _reference(records: list[Record]) -> Record | None:
+    """The reference's run, when it was timed and did not blow up."""
+    return next((r for r in case_records(records) if r.reference and r.us_per_step is not None and not r.broke),
+                None)
+
+
+def speed_error_png(title: str, records: list[Record]) -> bytes | None:
+    """The speed-against-error plot of one case, or None when no run has both a time and an error."""
+    points = measured(records)
+    if not points:
+        return None
+    plt = _pyplot()
+    errors = [float(r.error["rms"]) for r in points]
+    differing = [e for e in errors if e >= AS_EXACT]
+    low, high = (min(differing), max(differing)) if differing else (1e-3, 1e-3)
+    as_exact = len(differing) < len(errors)
+    band = low / 4  # where the runs as exact as the reference are drawn
+    reference = _reference(records)
+    xs_all = [float(r.us_per_step) for r in points] + ([reference.us_per_step] if reference else [])  # type: ignore[list-item]
+    fig, ax = plt.subplots(figsize=(7.5, 4.6), dpi=100)
     try:
-        solvers = list(dict.fromkeys(r.solver for r in points))
-        colours = plt.get_cmap("tab10")
-        for i, solver in enumerate(solvers):
-            recs = sorted((r for r in points if r.solver == solver), key=lambda r: r.value or 0)
-            xs = [r.us_per_step for r in recs]
-            ys = [max(r.error["rms"], FLOOR) for r in recs]  # type: ignore[type-var]
-            colour = colours(i % 10)
-            ax.plot(xs, ys, "-", color=colour, lw=1.2, label=solver)
-            for r, x, y in zip(recs, xs, ys):
-                ax.plot([x], [y], "o", ms=6, mec=colour, mfc=colour if r.passed else "white", mew=1.4)
-                if r.knob is not None:
-                    ax.annotate(str(r.value), (x, y), textcoords="offset points", xytext=(4, 3), fontsize=7,
-                                color=colour)
-        front = pareto(points)
-        fx = [r.us_per_step for r in front]
-        fy = [max(r.error["rms"], FLOOR) for r in front]  # type: ignore[type-var]
-        ax.step(fx, fy, where="post", color="0.55", lw=5, alpha=0.35, zorder=0, label="Pareto front")
-        ax.plot(fx, fy, "o", ms=12, mfc="none", mec="0.3", mew=1.0, zorder=0)
         ax.set_xscale("log")
         ax.set_yscale("log")
+        ax.set_xlim(min(xs_all) / 1.35, max(xs_all) * 1.35)
+        ax.set_ylim(band / 2.2 if as_exact else low / 2.2, high * 2.2)
+        if as_exact:
+            ax.axhspan(band / 2.2, band * 1.8, color="0.93", zorder=0, lw=0)
+            ax.text(0.01, band * 1.25, f"error < {AS_EXACT:g} m/s: every step as exact solves it (rounding)",
+                    transform=ax.get_yaxis_transform(), fontsize=7, color="0.35", va="bottom")
+        for solver in dict.fromkeys(r.solver for r in points):
+            recs = sorted((r for r in points if r.solver == solver), key=lambda r: r.value or 0)
+            xs = [float(r.us_per_step) for r in recs]  # type: ignore[arg-type]
+            ys = [float(r.error["rms"]) for r in recs]
+            shown = [y if y >= AS_EXACT else band for y in ys]
+            c = colour(solver)
+            ax.plot(xs, shown, "-", color=c, lw=1.2, label=solver)
+            for r, x, y, raw in zip(recs, xs, shown, ys):
+                ax.plot([x], [y], "v" if raw < AS_EXACT else "o", ms=6, mec=c, mfc=c if r.passed else "white",
+                        mew=1.4)
+                if r.knob is not None:
+                    ax.annotate(str(r.value), (x, y), textcoords="offset points", xytext=(4, 3), fontsize=7, color=c)
+        front = pareto(points)
+        if front:
+            fx = [float(r.us_per_step) for r in front]  # type: ignore[arg-type]
+            fy = [max(float(r.error["rms"]), band) for r in front]
+            ax.step(fx, fy, where="post", color="0.55", lw=5, alpha=0.35, zorder=0, label="Pareto front (passed)")
+            ax.plot(fx, fy, "o", ms=12, mfc="none", mec="0.3", mew=1.0, zorder=0)
+        if reference is not None:
+            ax.axvline(reference.us_per_step, color=colour(reference.solver), ls="--", lw=1.0,
+                       label=f"{reference.solver} (reference, error 0): {reference.us_per_step:.3g} µs/step, "
+                             f"{'passed' if reference.passed else 'failed'}")
         ax.set_xlabel("microseconds per step (median of timed runs)")
-        ax.set_ylabel(f"RMS velocity error against exact (m/s; < {FLOOR:g} drawn at {FLOOR:g})")
+        ax.set_ylabel("RMS velocity error against exact (m/s)")
         ax.set_title(f"{title}: speed against error (filled: passed the case, hollow: failed)", fontsize=10)
         ax.grid(True, which="both", lw=0.3, alpha=0.5)
-        ax.legend(fontsize=8, loc="best")
-        fig.subplots_adjust(left=0.12, right=0.97, bottom=0.11, top=0.93)  # fixed: tight_layout costs a second
-        buf = io.BytesIO()
-        fig.savefig(buf, format="png", metadata={"Software": None})
-        return buf.getvalue()
+        ax.legend(fontsize=7.5, loc="best")
+        fig.subplots_adjust(left=0.12, right=0.97, bottom=0.12, top=0.93)  # fixed: tight_layout costs a second
+        return _png(fig)
+    finally:
+        plt.close(fig)
+
+
+def rest_height(records: list[Record]) -> float | None:
+    """The top box's height on a rigid column at the end, from a run that has a series and was not crushed:
+    its final top height minus its ``top_rest_error``."""
+    for r in case_records(records):
+        if r.series is not None and not r.broke and r.series.steps and "top_rest_error" in r.measures:
+            return r.series.top[-1] - r.measures["top_rest_error"]
+    return None
+
+
+def trajectories_png(title: str, shown: list[Record], depth_limit: float, rest: float | None) -> bytes | None:
+    """Top height and largest depth against time, one line per record of ``shown`` that has a series; None
+    when none has."""
+    drawn = [r for r in shown if r.series is not None and r.series.steps]
+    if not drawn:
+        return None
+    plt = _pyplot()
+    floor = DEPTH_FLOOR * depth_limit
+    fig, (top, deep) = plt.subplots(1, 2, figsize=(11.5, 3.5), dpi=100, sharex=True)
+    try:
+        for r in drawn:
+            s = r.series
+            assert s is not None
+            t = s.times()
+            style = dict(color=colour(r.solver), lw=1.3, ls="-" if r.passed else "--")
+            name = f"{label(r.solver, r.knob, r.value)}: {'passed' if r.passed else 'failed'}"
+            if r.crushed:
+                name += f", crushed at step {r.crushed_at}"
+            top.plot(t, s.top, label=name, **style)
+            deep.plot(t, [max(d, floor) for d in s.depth], **style)
+            if r.crushed:
+                top.plot(t[-1:], s.top[-1:], "x", color=style["color"], ms=8, mew=2)
+                deep.plot(t[-1:], [max(s.depth[-1], floor)], "x", color=style["color"], ms=8, mew=2)
+        if rest is not None and math.isfinite(rest):
+            top.axhline(rest, color="0.3", ls=":", lw=1, label="rigid rest height")
+        deep.axhline(depth_limit, color="0.3", ls=":", lw=1)
+        deep.annotate(f"depth limit {depth_limit:g} m", (0.99, depth_limit), xycoords=("axes fraction", "data"),
+                      ha="right", va="bottom", fontsize=7, color="0.3")
+        deep.set_yscale("log")
+        deep.set_ylim(bottom=floor / 1.5)
+        top.set_title(f"{title}: top box height (m)", fontsize=9)
+        deep.set_title(f"{title}: largest contact depth (m; below {floor:g} drawn at the axis)", fontsize=9)
+        for ax in (top, deep):
+            ax.set_xlabel("time (s)")
+            ax.grid(True, which="both", lw=0.3, alpha=0.5)
+            ax.tick_params(labelsize=8)
+        fig.legend(fontsize=7, loc="center left", bbox_to_anchor=(0.745, 0.5), frameon=False)
+        fig.subplots_adjust(left=0.06, right=0.73, bottom=0.14, top=0.91, wspace=0.2)
+        return _png(fig)
     finally:
         plt.close(fig)

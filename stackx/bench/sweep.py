@@ -19,6 +19,7 @@ from typing import Any
 
 from stackx.bench.plan import CASE, Case, SolverPlan
 from stackx.bench.timing import one_thread, time_run
+from stackx.bench.trajectory import SeriesLog, Trajectory
 from stackx.criteria import NAMES, judge, passed
 from stackx.errors import RunError
 from stackx.results import RunResult
@@ -50,6 +51,7 @@ class Record:
     us_per_call: float | None = None
     timing: dict[str, Any] = field(default_factory=dict)
     reference: bool = False  # the model's reference solver: its error is zero by definition
+    series: Trajectory | None = field(default=None, repr=False)  # against time, for the report (not in as_dict)
 
     @property
     def crushed(self) -> bool:
@@ -62,16 +64,21 @@ class Record:
         return self.blew_up is not None or self.crushed
 
     def as_dict(self) -> dict[str, Any]:
-        return {**dataclasses.asdict(self), "crushed": self.crushed}
+        """The record as ``bench.json`` keeps it: every field but the series (the report's file keeps the
+        series of the runs it shows)."""
+        doc = dataclasses.asdict(dataclasses.replace(self, series=None))
+        del doc["series"]
+        return {**doc, "crushed": self.crushed}
 
 
 def _run_name(plan: SolverPlan, variant: str, value: int) -> str:
     return f"{plan.solver}/{variant}/{value}"
 
 
-def _measure(case: Case, plan: SolverPlan, variant: str, value: int, result: RunResult, log: Any) -> Record:
-    """A finished run's record: its measures, the model's for the bench, and the step log's (``log`` is the
-    row's log, None when the model has no reference to measure against)."""
+def _measure(case: Case, plan: SolverPlan, variant: str, value: int, result: RunResult, log: Any,
+             series: Trajectory | None) -> Record:
+    """A finished run's record: its measures, the model's for the bench, the step log's (``log`` is the
+    row's log, None when the model has no reference to measure against) and its ``series`` against time."""
     rec = _record(case, plan, variant, value)
     m = result.measures
     rec.measures = {k: float(m[k]) for k in RUN_MEASURES}  # type: ignore[arg-type]
@@ -80,6 +87,7 @@ def _measure(case: Case, plan: SolverPlan, variant: str, value: int, result: Run
         rec.measures.update(log.timeline())
         rec.crushed_at = log.crushed_at
         rec.error = log.error()
+    rec.series = series if rec.crushed_at is None or series is None else series.until(rec.crushed_at)
     verdicts = judge(rec.measures, case.section.criteria)
     rec.criteria = {name: v.as_dict() for name, v in verdicts.items()}
     rec.passed = passed(verdicts)
@@ -119,8 +127,9 @@ def run_plan(case: Case, plan: SolverPlan, progress: Progress | None = None) -> 
         return {r.name: r for r in run_experiment(experiment, report, log, record).runs}
 
     log = case.run.model.step_log(case.section.criteria)
+    watched = SeriesLog(log) if log is not None else None  # a model without a step log is not stepped one by one
     try:
-        results = run([r for _, _, r in runs], log, progress)
+        results = run([r for _, _, r in runs], watched, progress)
     except RunError:
         results = {}
     out = []
@@ -128,11 +137,12 @@ def run_plan(case: Case, plan: SolverPlan, progress: Progress | None = None) -> 
         result = results.get(spec.name)
         if result is None:
             try:
-                result = run([spec], log, None)[spec.name]
+                result = run([spec], watched, None)[spec.name]
             except RunError as exc:
                 out.append(_blown(case, plan, variant, value, str(exc)))
                 continue
-        out.append(_measure(case, plan, variant, value, result, log.rows[spec.name] if log is not None else None))
+        rows = (log.rows[spec.name], watched.series(spec.name)) if watched is not None else (None, None)
+        out.append(_measure(case, plan, variant, value, result, *rows))
     return out
 
 

@@ -1,4 +1,5 @@
-"""The bench in the terminal: a rich table per case, the stability matrix, claims and equal-cost winners."""
+"""The bench in the terminal: a rich table per case with the cheapest solver that passes it, the stability
+matrix, claims and equal-cost winners."""
 
 from __future__ import annotations
 
@@ -6,8 +7,9 @@ from rich.console import Console
 from rich.markup import escape
 from rich.table import Table
 
-from stackx.bench.compare import case_records, matrix
-from stackx.bench.report import PER_CALL_MARK, CaseResult, number, shown, step_time
+from stackx.bench.compare import case_records, label, matrix, outcomes
+from stackx.bench.markup import number
+from stackx.bench.result import CaseResult, per_call_note, shown, step_time
 from stackx.criteria import NAMES
 
 _KNOB = {"iterations": "it", "substeps": "sub"}
@@ -29,9 +31,8 @@ def case_table(res: CaseResult) -> Table:
             v = r.criteria[name]
             row.append("[green]pass[/]" if v["passed"] else "[red]fail[/]")
         table.add_row(*row)
-    if any(r.timing.get("one_step_per_call") for r in res.records):
-        table.caption = f"{PER_CALL_MARK} an engine, stepped once per Python call: µs/step is its µs/call"
-        table.caption_justify = "left"
+    if per_call_note(res):
+        table.caption, table.caption_justify = per_call_note(res), "left"
     return table
 
 
@@ -54,6 +55,13 @@ def print_all(results: list[CaseResult], console: Console) -> None:
     """The case tables with their equal-cost winners, the matrix, then what each lab claim came to."""
     for res in results:
         console.print(case_table(res))
+        shown = outcomes(res.records)
+        if shown and shown[0].passed:
+            best = shown[0]
+            console.print(f"  cheapest that passes: {escape(label(best.solver, best.knob, best.value))}, "
+                          f"{number(best.us_per_step)} µs/step")
+        else:
+            console.print("  [red]no solver passes[/]")
         winners = [f"<= {row['target']:g}: {row['winner']}" for row in res.equal_cost if row["winner"]]
         if winners:
             console.print(f"  fastest to reach an error (m/s) {'; '.join(winners)}")

@@ -1,24 +1,36 @@
-"""Pictures of the column every ``every`` steps, and optionally an HTML page that plays them."""
+"""Pictures of the column every ``every`` steps, and optionally an HTML page that plays them.
+
+By default the page is the lab's (``player_html``: the pictures in a loop). With ``controls: true`` it is a
+player with pause, step, a frame slider, speed and keys, showing each frame's step and time and the top box's
+height and the deepest contact under the picture; with ``count: all`` the frames run to the end of the run,
+the whole settling. Both are asked for, so the lab's ``index.html`` and pictures stay as they are.
+"""
 
 from __future__ import annotations
 
 from pydantic import Field
 
+from stackx.models.column.state import ColumnState
 from stackx.outputs import Renderer
 from stackx.registry import renderers
 from stackx.render.pick import run_name
-from stackx.render.player import player_html
-from stackx.render.style import Styled, draw_column
+from stackx.render.player import Panel, controlled_player_html, player_html
+from stackx.render.style import draw_column
+from stackx.render.timeline import TimelineParams, frame_count, frame_steps, labels
 
 
-class FramesParams(Styled):
+class FramesParams(TimelineParams):
     path: str = Field("f{index:02d}.png", description="file name template; {index} counts frames from 0")
-    start: int = Field(0, ge=0, description="step of the first frame (the state before that step)")
-    every: int = Field(gt=0, description="steps between frames")
-    count: int = Field(gt=0, le=100_000, description="number of frames")
     run: str | None = Field(None, description="which run to draw (needed when there are several)")
     player: str | None = Field(None, description="HTML page that plays the frames in order (e.g. index.html)")
-    interval_ms: int = Field(250, gt=0, le=60_000, description="time each frame is shown in the player")
+    controls: bool = Field(False, description="the player page gets pause, step, a frame slider, speed and keys, "
+                                              "with each frame's step, time, top height and deepest contact; "
+                                              "false: the lab's page, the pictures in a loop")
+
+
+def describe(state: ColumnState) -> str:
+    """The figures a player shows under a picture of the column: where the top box is and the deepest contact."""
+    return f"top box {state.y[0, -1]:.3f} m · deepest contact {state.penetration()[0].max():.4f} m"
 
 
 @renderers.register("frames")
@@ -27,36 +39,43 @@ class Frames(Renderer):
 
     Params = FramesParams
     models = ("column",)
+    count: int
 
     def steps(self) -> list[int]:
-        p = self.params
-        return [p.start + k * p.every for k in range(p.count)]
+        return frame_steps(self.params, self.count)
 
     def names(self) -> list[str]:
-        return [self.params.path.format(index=k) for k in range(self.params.count)]
+        return [self.params.path.format(index=k) for k in range(self.count)]
 
     def files(self) -> list[str]:
         return self.names() + ([self.params.player] if self.params.player else [])
 
     def check(self, spec, fail) -> None:  # type: ignore[no-untyped-def]
         self.run = run_name(spec, self.params.run, fail)
+        self.count = frame_count(self.params, spec.run(self.run).steps, fail)
         try:
             names = self.names()
         except (KeyError, IndexError, ValueError) as exc:
             raise fail(("path",), f"bad template: {exc}; use {{index}}, e.g. f{{index:02d}}.png") from None
         if len(set(names)) != len(names):
             raise fail(("path",), "the template gives every frame the same name; put {index} in it")
-        last, steps = self.steps()[-1], spec.run(self.run).steps
-        if last > steps:
-            raise fail(("count",), f"the last frame would be at step {last}, past the end of the run ({steps})")
 
     def frame_steps(self, spec) -> set[int]:  # type: ignore[no-untyped-def]
         return set(self.steps())
 
     def write(self, result, out) -> None:  # type: ignore[no-untyped-def]
         run = result.run(self.run)
+        style = self.params.style
         for name, step in zip(self.names(), self.steps()):
-            out.write_bytes(name, draw_column(run.frames[step], self.params.style).png_bytes())
-        if self.params.player:
-            title = result.spec.description or result.spec.name
+            out.write_bytes(name, draw_column(run.frames[step], style).png_bytes())
+        if not self.params.player:
+            return
+        title = result.spec.description or result.spec.name
+        if not self.params.controls:
             out.write_text(self.params.player, player_html(self.names(), self.params.interval_ms, title))
+            return
+        panel = Panel(run.name, run.spec.solver_cls.plugin_name, self.names(),
+                      [describe(run.frames[k]) for k in self.steps()])
+        page = controlled_player_html(title, [panel], labels(self.steps(), run.spec.dt), self.params.interval_ms,
+                                      (style.width, style.height))
+        out.write_text(self.params.player, page)

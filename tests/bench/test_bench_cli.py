@@ -2,19 +2,21 @@
 
 from __future__ import annotations
 
+import base64
 import hashlib
 import html
 import json
 import re
 import subprocess
 import sys
+from html.parser import HTMLParser
 from pathlib import Path
 
 import pytest
 
 from stackx import registry
 from tests.conftest import REPO, Cli
-from tests.lab.reference import png_header
+from tests.lab.reference import png_header, read_png
 
 CASES = {
     "tall-6": """
@@ -170,13 +172,17 @@ def test_claim_is_measured_pair_by_pair(doc: dict) -> None:
 
 
 def test_report_page_shows_plots_matrix_and_findings(bench_out: Path, doc: dict) -> None:
-    page = (bench_out / "out" / "report.html").read_text()
+    """The page stands alone: two pictures per case embedded as data: URIs, nothing beside it, no network."""
+    out = bench_out / "out"
+    assert sorted(p.name for p in out.iterdir()) == ["bench.json", "report.html"]
+    page = (out / "report.html").read_text()
     images = re.findall(r'<img src="([^"]+)"', page)
-    assert sorted(images) == sorted(f"plots/{name}.png" for name in CASES)
+    assert len(images) == 2 * len(CASES) and all(src.startswith("data:image/png;base64,") for src in images)
     for src in images:
-        header = png_header((bench_out / "out" / src).read_bytes())
+        header = png_header(base64.b64decode(src.split(",", 1)[1]))
         assert header.width > 300 and header.height > 200
     assert "http://" not in page.replace("http://www.w3.org", "") and "https://" not in page
+    assert not re.findall(r'(?:src|href)="(?!data:|#)', page), "a link to a file beside the page"
     matrix = page[page.index("<h2>Stability matrix</h2>"):page.index("</table>", page.index("Stability matrix"))]
     for solver in builtin_solvers():
         assert f">{solver}<" in matrix
@@ -187,6 +193,182 @@ def test_report_page_shows_plots_matrix_and_findings(bench_out: Path, doc: dict)
     for row in next(c for c in doc["cases"] if c["name"] == "tall-6")["equal_cost"]:
         if row["winner"]:
             assert row["winner"] in page
+
+
+class _Tables(HTMLParser):
+    """Every table of a page as rows of (text, attributes) cells, and the order of headings and sections."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.tables: list[list[list[tuple[str, dict[str, str]]]]] = []
+        self.order: list[str] = []
+        self._cell: tuple[list[str], dict[str, str]] | None = None
+        self._heading: list[str] | None = None
+
+    def handle_starttag(self, tag: str, attrs: list[tuple[str, str | None]]) -> None:
+        a = {k: v or "" for k, v in attrs}
+        if tag == "table":
+            self.tables.append([])
+        elif tag == "tr":
+            self.tables[-1].append([])
+        elif tag in ("td", "th"):
+            self._cell = ([], a)
+        elif tag in ("h1", "h2"):
+            self._heading = []
+        elif tag == "details":
+            self.order.append(f"details#{a.get('id', '')}.{a.get('class', '')}")
+
+    def handle_endtag(self, tag: str) -> None:
+        if tag in ("td", "th") and self._cell is not None:
+            self.tables[-1][-1].append(("".join(self._cell[0]).strip(), self._cell[1]))
+            self._cell = None
+        elif tag in ("h1", "h2") and self._heading is not None:
+            self.order.append(f"{tag}:{''.join(self._heading).strip()}")
+            self._heading = None
+
+    def handle_data(self, data: str) -> None:
+        if self._cell is not None:
+            self._cell[0].append(data)
+        if self._heading is not None:
+            self._heading.append(data)
+
+
+def _parsed(bench_out: Path) -> _Tables:
+    parser = _Tables()
+    parser.feed((bench_out / "out" / "report.html").read_text())
+    return parser
+
+
+def _own(case: dict) -> dict[str, list[dict]]:
+    by: dict[str, list[dict]] = {}
+    for r in case["records"]:
+        if r["variant"] == "case":
+            by.setdefault(r["solver"], []).append(r)
+    return {s: sorted(rs, key=lambda r: r["value"] or 0) for s, rs in by.items()}
+
+
+def test_report_opens_on_a_summary_of_cheapest_pass_and_reasons(bench_out: Path, doc: dict) -> None:
+    """The first section is the summary; each case row names the cheapest solver that passes (each solver at
+    its smallest passing knob value, the fastest of those) and, for every solver that failed everywhere, the
+    failed checks at its largest knob value (in the cell's hover text). Worked out here from bench.json."""
+    parsed = _parsed(bench_out)
+    assert parsed.order[:2] == ["h1:stackx bench", "h2:Summary"]
+    cases = [o for o in parsed.order if o.endswith(".case")]
+    assert cases == [f"details#{name}.case" for name in sorted(CASES)], "each case is a collapsible section"
+    summary = parsed.tables[0]
+    head = [text for text, _ in summary[0]]
+    assert head[:3] == ["case", "cheapest that passes", "µs per step"]
+    rows = {row[0][0]: row for row in summary[1:]}
+    assert sorted(rows) == sorted(CASES)
+    for case in doc["cases"]:
+        own = _own(case)
+        smallest = {s: next(r for r in rs if r["passed"]) for s, rs in own.items() if any(r["passed"] for r in rs)}
+        row = rows[case["name"]]
+        cells = dict(zip(head, row))
+        if smallest:
+            best = min(smallest.values(), key=lambda r: r["us_per_step"])
+            assert cells["cheapest that passes"][0].startswith(best["solver"])
+            assert float(cells["µs per step"][0]) == pytest.approx(best["us_per_step"], rel=5e-3)  # 3 figures
+        else:
+            assert cells["cheapest that passes"][0] == "none passes"
+        for solver, recs in own.items():
+            text, attrs = cells[solver]
+            if solver in smallest:
+                assert text == "pass" + (f" {smallest[solver]['value']}" if recs[0]["knob"] else "")
+                continue
+            last = recs[-1]
+            assert "fail" in attrs["class"]
+            if last["blew_up"]:
+                assert text.startswith("blew up")
+            elif last["crushed"]:
+                assert text == f"crushed at step {last['crushed_at']}"
+            else:
+                failed = [c for v in last["criteria"].values() for c in v["checks"] if not c["passed"]]
+                assert failed and len(text.split(", ")) <= len(failed)
+                for c in failed:
+                    assert f"{c['measure']} {c['value']:.3g}" in attrs["title"], (case["name"], solver, attrs)
+
+
+def _on_front(runs: list[dict]) -> set[tuple[str, int | None]]:
+    """Brute force: a run is on the front when no other run is at least as fast and as accurate."""
+    def beaten(r: dict) -> bool:
+        return any(o is not r and o["us_per_step"] <= r["us_per_step"] and o["error"]["rms"] <= r["error"]["rms"]
+                   and (o["us_per_step"], o["error"]["rms"]) != (r["us_per_step"], r["error"]["rms"]) for o in runs)
+    return {(r["solver"], r["value"]) for r in runs if not beaten(r)}
+
+
+def test_fronts_and_winners_come_from_runs_that_passed(doc: dict) -> None:
+    for case in doc["cases"]:
+        passing = [r for rs in _own(case).values() for r in rs if r["passed"] and not r["reference"]
+                   and not r["crushed"] and not r["blew_up"] and r["error"]["rms"] is not None]
+        assert {(p["solver"], p["value"]) for p in case["pareto"]} == _on_front(passing), case["name"]
+        for row in case["equal_cost"]:
+            reach = [r for r in passing if r["error"]["rms"] <= row["target"]]
+            fastest = min(reach, key=lambda r: r["us_per_step"]) if reach else None
+            assert row["winner"] == (fastest["solver"] if fastest else None)
+            assert {s["solver"] for s in row["solvers"]} == {r["solver"] for r in reach}
+
+
+def test_each_solver_is_drawn_against_time_at_the_run_the_summary_shows(doc: dict) -> None:
+    """tall-6: six unit boxes from y = 0.501 + k. Each solver's series starts from the initial state (top at
+    5.501, no overlap), ends on the run's final measures (top = 5.5 + top_rest_error on a rigid column of six
+    unit boxes, depth = max_depth), at evenly spaced steps from 0 to the end; a crushed run stops before."""
+    case = next(c for c in doc["cases"] if c["name"] == "tall-6")
+    own = _own(case)
+    shown = {s["solver"]: s for s in case["shown"]}
+    assert set(shown) == set(own)
+    for solver, recs in own.items():
+        want = next((r for r in recs if r["passed"]), recs[-1])
+        got = shown[solver]
+        assert (got["value"], got["passed"]) == (want["value"], want["passed"])
+        series = got["series"]
+        if want["blew_up"]:
+            assert series is None
+            continue
+        steps = series["steps"]
+        assert steps[0] == 0 and steps == sorted(set(steps)) and len(steps) >= 100
+        gaps = {b - a for a, b in zip(steps, steps[1:])}
+        assert max(gaps) - min(gaps) <= 1, "evenly spaced"
+        assert series["top"][0] == pytest.approx(5.501, abs=1e-12) and abs(series["max_depth"][0]) <= 1e-12
+        if want["crushed"]:
+            assert steps[-1] < want["crushed_at"]
+            continue
+        assert steps[-1] == case["steps"]
+        assert series["top"][-1] == pytest.approx(5.5 + want["measures"]["top_rest_error"], abs=1e-12)
+        assert series["max_depth"][-1] == want["measures"]["max_depth"]
+
+
+def test_every_solver_has_one_colour_everywhere(bench_out: Path, doc: dict) -> None:
+    """The swatches of the page give each solver one colour, a different one per built-in solver, and each
+    case's speed plot draws every solver it shows in that colour (the filled centre of a passing marker, or a
+    hollow marker's ring, has the exact colour)."""
+    page = (bench_out / "out" / "report.html").read_text()
+    swatches = re.findall(r'<span class="sw" style="background:(#[0-9a-f]{6})"></span>([\w-]+)', page)
+    colours: dict[str, set[str]] = {}
+    for c, solver in swatches:
+        colours.setdefault(solver, set()).add(c)
+    assert set(colours) == builtin_solvers() and all(len(c) == 1 for c in colours.values())
+    assert len({next(iter(c)) for c in colours.values()}) == len(colours)
+    plots = [src for src in re.findall(r'<img src="([^"]+)" alt="speed against error, ([\w-]+)"', page)]
+    assert len(plots) == len(CASES)
+    for src, name in plots:
+        case = next(c for c in doc["cases"] if c["name"] == name)
+        _, _, picture = read_png(base64.b64decode(src.split(",", 1)[1]))
+        pixels = {p for row in picture for p in row}
+        drawn = {r["solver"] for r in case["records"] if r["variant"] == "case" and not r["reference"]
+                 and not r["crushed"] and not r["blew_up"] and r["error"]["rms"] is not None}
+        for solver in drawn:
+            c = next(iter(colours[solver]))
+            assert tuple(int(c[i:i + 2], 16) for i in (1, 3, 5)) in pixels, (name, solver, c)
+
+
+def test_table_headers_carry_units(bench_out: Path) -> None:
+    parsed = _parsed(bench_out)
+    runs = next(t for t in parsed.tables if t[0][0][0] == "solver")
+    head = [text for text, _ in runs[0]]
+    unitless = {"solver", "knob", "worst step", "holds", "settled", "never_launched"}
+    for text in head:
+        assert text in unitless or re.search(r"\((?:m|m/s|step|× half-height)\)$|^µs per", text), text
 
 
 def test_same_configs_give_the_same_records_apart_from_timings(bench_out: Path, doc: dict, tmp_path: Path) -> None:

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from stackx.bench.compare import cell, equal_cost, pareto
+from stackx.bench.compare import cell, chosen, equal_cost, pareto, why
 from stackx.bench.sweep import Record
 from stackx.criteria import Criteria, judge, passed
 
@@ -66,3 +66,30 @@ def test_fronts_and_winners_leave_out_the_reference_and_crushed_runs() -> None:
     assert rows[1e-2]["winner"] == "warm-start" and rows[1e-3]["winner"] == "pgs"
     assert rows[1e-6]["winner"] is None
     assert all(s["solver"] != "exact" for row in rows.values() for s in row["solvers"])
+
+
+def test_fronts_and_winners_leave_out_runs_that_failed() -> None:
+    """A run faster and more accurate than every other, whose column sank (max_depth 0.5 m > 0.02 m): it fails
+    the case, so it is on no front and wins no error level."""
+    sunk = _record(4, max_depth=0.5)
+    sunk.solver, sunk.us_per_step, sunk.error = "jacobi", 0.05, {"rms": 1e-7}
+    assert not sunk.passed
+    records = [sunk, _timed("pgs", 16, 1.0, 1e-3), _timed("warm-start", 8, 0.5, 1e-2)]
+    assert [(r.solver, r.value) for r in pareto(records)] == [("warm-start", 8), ("pgs", 16)]
+    rows = {row["target"]: row for row in equal_cost(records)}
+    assert rows[1e-6]["winner"] is None and rows[1e-3]["winner"] == "pgs" and rows[1e-2]["winner"] == "warm-start"
+    assert all(s["solver"] != "jacobi" for row in rows.values() for s in row["solvers"])
+
+
+def test_summary_words_name_what_failed() -> None:
+    """A sunk, still moving run reads 'overlaps, sunk, moving' (the top box 0.5 m low); a crushed one says
+    where; the shown run is the smallest passing knob value, else the largest."""
+    low = _record(64, max_depth=0.5, top_rest_error=-0.5, rms_motion=0.1)
+    assert why(low) == "overlaps, sunk, moving"
+    high = _record(64, top_rest_error=0.5)
+    assert why(high) == "high"
+    crushed = _record(64, reach=3.0)
+    crushed.crushed_at = 40
+    assert why(crushed) == "crushed at step 40"
+    assert chosen([_record(1, max_depth=0.5), _record(16), _record(4)]).value == 4
+    assert chosen([_record(1, max_depth=0.5), _record(16, max_depth=0.5)]).value == 16

@@ -1,0 +1,35 @@
+"""One colour per solver, keyed by its name, for every plot and table of a bench report.
+
+A solver keeps its colour from plot to plot and from report to report, so a reader who has learnt that the
+lab solver is red need not read a legend again. The built-in solvers have colours of their own (the lab
+solver red, the reference near black, the others the remaining colours of matplotlib's ``tab10``); any other
+solver (a plugin) gets one of a second set, picked by a hash of its name, so it too keeps its colour
+everywhere (two plugins may share one).
+"""
+
+from __future__ import annotations
+
+import hashlib
+
+BUILT_IN = {
+    "pgs": "#d62728",
+    "warm-start": "#1f77b4",
+    "baumgarte": "#8c564b",
+    "split-impulse": "#ff7f0e",
+    "ngs": "#2ca02c",
+    "soft-step": "#9467bd",
+    "xpbd": "#17becf",
+    "jacobi": "#bcbd22",
+    "exact": "#222222",
+}
+OTHERS = ("#e377c2", "#7f7f7f", "#6b6ecf", "#b5651d", "#637939", "#ad494a", "#3182bd", "#e6550d", "#31a354",
+          "#756bb1")
+
+
+def colour(solver: str) -> str:
+    """The solver's colour as ``#rrggbb``: its own for a built-in, else one of ``OTHERS`` by a hash of the name
+    (a hash of the bytes, not Python's ``hash``, which changes from process to process)."""
+    if solver in BUILT_IN:
+        return BUILT_IN[solver]
+    digest = hashlib.sha256(solver.encode()).digest()
+    return OTHERS[int.from_bytes(digest[:4], "big") % len(OTHERS)]

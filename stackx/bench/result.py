@@ -1,0 +1,135 @@
+"""A benched case and how its records read: what is derived from them, the figures tables show, and the
+definitions every output of the bench prints."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+from stackx.bench.claims import finding
+from stackx.bench.compare import TARGETS, equal_cost, pareto
+from stackx.bench.markup import number
+from stackx.bench.plan import Case
+from stackx.bench.sweep import Record
+from stackx.models.column.measures import MOTION_WINDOW, STILL
+
+DEFINITIONS = {
+    "holds": "in the final state every contact (the floor's included) overlaps by at most max_depth <= "
+             "criteria.depth_factor x criteria.slop and has at most that much gap (max_gap: a column resting on "
+             "air does not hold); the top box ends within |top_rest_error| <= criteria.rest_factor x criteria.slop "
+             "x contacts of its rigid rest height; and no box ever passed half-way into its neighbour or below "
+             "the floor (reach <= criteria.reach, 1 by default)",
+    "settled": f"the RMS of the boxes' actual motion (y_now - y_prev)/dt over the last {MOTION_WINDOW} steps is "
+               "below criteria.settle (stored velocities that move nothing do not count)",
+    "never_launched": "no box moved upward faster than criteria.launch after it first touched something, measured "
+                      "from positions after every step, (y_now - y_prev)/dt, the same way for every solver: a "
+                      "position correction that throws a box up counts although it never touches a velocity",
+    "crushed": "a box passed half-way into its neighbour at some step (reach above criteria.reach): the column's "
+               "order no longer says which box rests on which, so the run's depths, heights and errors are left "
+               "out of the tables, the speed-against-error plot, Pareto fronts and equal-cost winners, its line "
+               "against time stops at the step before (marked x), and its cell says where it was crushed",
+    "error": "along the solver's own run, at every step: from the state before the step, the exact solver's "
+             "velocity stage gives the step's exact velocities (gravity, then no contact approaching and none "
+             "pulling, solved to machine precision); the error is the RMS over all steps and boxes of the "
+             "solver's stored velocity after the step minus the exact one (m/s), with the largest difference and "
+             "the step it came at (0-based). Comparing on the solver's own path measures how well each step is "
+             "solved; running both side by side would compare two piles that part ways within a few steps. It "
+             "includes what a solver does on purpose that a rigid contact does not (a bias pushing apart, soft "
+             "contacts, substeps, speculative contacts). A crushed run's error stops where it was crushed.",
+    "steps_to_recover": "the step from which every contact overlaps by at most criteria.depth_factor x "
+                        "criteria.slop to the end of the run; - when the run ends overlapping",
+    "steps_to_settle": "the step from which every contact is within that depth and that gap and the RMS motion "
+                       "of each step is below criteria.settle, to the end of the run; - when it never gets there",
+    "us_per_step": "microseconds per step of one run alone, from the scene's start (up to bench.timing.steps "
+                   "steps, before any scene event), stepped in one call, compiled, on one thread, the median of "
+                   "bench.timing.repeats runs after an untimed warm-up step; with what follows from them (equal "
+                   "cost, Pareto fronts, plots) the only numbers that change between two benches of the same "
+                   "configs",
+    "us_per_call": "the same, one step per call, as a game loop or an engine bound to Python is stepped: the "
+                   "figure to set beside pymunk, Box2D or MuJoCo",
+    "one_step_per_call": "an engine (pymunk, Box2D, MuJoCo) steps once per Python call and has no way to take "
+                         "many steps in one, so it is timed per call only and its µs/step is its µs/call, marked "
+                         "'*'; it includes copying the bodies' heights and velocities back into the column and the "
+                         "column's monitors after every step",
+    "knob": "each solver's cost knob (its 'knob' attribute, else its iterations or substeps parameter) runs at "
+            "the values of bench.knob (or bench.knobs for that solver); the config's own solver also runs at "
+            "the config's own value; a solver without a knob runs once",
+    "top_rest_error": "final height of the top box minus its height on a rigid column (heights of the boxes "
+                      "below plus its half-height); negative: the column sank",
+    "top_p2p": f"peak-to-peak height of the top box over the last {MOTION_WINDOW} steps",
+    "top_reversals": "(cases with a claim) how many times the top box's step-to-step motion changed direction "
+                     f"over the whole run once it rested on something, steps under {STILL:g} m skipped",
+    "top_rise": "(cases with a claim) the top box's fastest upward motion from positions, (y_next - y)/dt",
+    "claim": "a lab claim is measured on pairs of runs, the case's setting and the lab's, for every solver that "
+             "has the setting and every knob value; a pair bears it out when the case's setting still moves at "
+             "the end (RMS motion at or above criteria.settle) where the lab's has settled",
+    "equal_cost": f"for each error level ({', '.join(f'{t:g}' for t in TARGETS)} m/s), the solver whose cheapest "
+                  "run at or below that error takes the fewest microseconds per step, among runs that passed the "
+                  "case (a run that fails is no answer, however fast and accurate its steps); the reference is "
+                  "left out (its error is zero by definition) and its time shown beside",
+    "pareto": "among runs that passed the case, those that no other passing run beats on both time per step and "
+              "error (the reference left out); runs that failed are drawn hollow but never on the front",
+    "cheapest": "the case's answer in the summary: each solver at its smallest knob value that passed, and of "
+                "those the one with the fewest microseconds per step, the reference included (its time is as "
+                "real as any); the other solvers fail for the reasons their cells give, at the largest knob "
+                "value they tried",
+    "against_time": "the top box's height and the largest contact depth at some 200 evenly spaced steps of each "
+                    "solver's run at the knob value the summary shows (its smallest passing one, else its "
+                    "largest): the run that answers the case, or the most a failing solver was given, so the "
+                    "picture shows how it fails",
+}
+
+
+@dataclass
+class CaseResult:
+    """A benched case: its records and what is derived from them."""
+
+    case: Case
+    records: list[Record]
+    left_out: dict[str, str]
+    claim: dict[str, Any] | None = None
+    equal_cost: list[dict[str, Any]] = field(default_factory=list)
+    front: list[Record] = field(default_factory=list)
+
+    @classmethod
+    def build(cls, case: Case, records: list[Record], left_out: dict[str, str]) -> CaseResult:
+        return cls(case, records, left_out, finding(case, records), equal_cost(records), pareto(records))
+
+    @property
+    def name(self) -> str:
+        return self.case.name
+
+
+MEASURES = ("max_depth", "max_gap", "peak_depth", "top_rest_error", "rms_motion", "top_p2p", "launch",
+            "steps_to_recover", "steps_to_settle")
+
+
+PER_CALL_MARK = "*"  # after an engine's µs/step: timed one step per call, the only way it can be stepped
+
+
+def step_time(rec: Record) -> str:
+    """A record's µs/step for a table; an engine's, which is its µs/call, marked (see DEFINITIONS)."""
+    text = number(rec.us_per_step, ".2f")
+    return text + PER_CALL_MARK if rec.us_per_step is not None and rec.timing.get("one_step_per_call") else text
+
+
+def per_call_note(res: CaseResult) -> str:
+    """The line under a case's table when an engine is in it; empty otherwise."""
+    if not any(r.timing.get("one_step_per_call") for r in res.records):
+        return ""
+    return f"{PER_CALL_MARK} an engine, stepped once per Python call: its µs/step is its µs/call"
+
+
+def shown(rec: Record) -> dict[str, str]:
+    """A record's figures as a table shows them: '-' where there is none, and none of a run that broke (a
+    crushed run keeps only its reach, which says by how much)."""
+    if rec.broke:
+        figures = {k: "-" for k in ("error", "error_max", "worst_step", *MEASURES)}
+        figures["reach"] = "-" if rec.blew_up else number(rec.measures.get("reach"))
+        return figures
+    m, e = rec.measures, rec.error
+    figures = {"error": number(e.get("rms")), "error_max": number(e.get("max")),
+               "worst_step": number(e.get("worst_step"), "d"), "reach": number(m.get("reach"))}
+    for k in MEASURES:
+        figures[k] = number(m.get(k), "g" if k.startswith("steps_") else ".3g")
+    return figures

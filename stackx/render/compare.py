@@ -1,0 +1,123 @@
+"""The same scene under several solvers, side by side and in step: one player page over runs of an experiment.
+
+Any config with several runs can add it, e.g. the lab's stack under three solvers:
+
+```yaml
+runs:
+  lab: {}
+  warm: {solver: {name: warm-start}}
+  exact: {solver: {name: exact}}
+outputs:
+  - render: compare           # compare.html, and the pictures under compare/
+    every: 15
+    count: all
+```
+
+Each run is drawn every ``every`` steps into its own pictures (``frames``, a template with ``{run}`` and
+``{index}``), and the page shows one panel per run, all on the same frame, with the player's controls
+(``stackx.render.player.controlled_player_html``), the step and time of the frame, and under each picture the
+top box's height and the deepest contact, where the solvers' differences show before they are visible. The
+runs must step with the same dt, so that a frame is one instant for all of them.
+"""
+
+from __future__ import annotations
+
+import json
+from typing import Any
+
+from pydantic import Field
+
+from stackx.outputs import Renderer
+from stackx.registry import renderers
+from stackx.render.frames import describe
+from stackx.render.player import Panel, controlled_player_html
+from stackx.render.style import draw_column
+from stackx.render.timeline import TimelineParams, frame_count, frame_steps, labels
+
+
+class CompareParams(TimelineParams):
+    path: str = Field("compare.html", description="the player page, inside the output folder")
+    frames: str = Field("compare/{run}-{index:03d}.png", description="file name template of the pictures; {run} "
+                                                                      "is the run's name, {index} counts frames from 0")
+    runs: list[str] | None = Field(None, min_length=1, description="the runs to show side by side, in this order; "
+                                                                   "default: every run of the experiment")
+
+
+def flat(values: dict[str, Any], prefix: str = "") -> list[tuple[str, Any]]:
+    """A solver's settings as dotted keys and values, nested sections opened and unset (null) ones left out:
+    ``[("correction.percent", 0.2), ("iterations", 15)]``."""
+    out: list[tuple[str, Any]] = []
+    for key in sorted(values):
+        value = values[key]
+        if isinstance(value, dict):
+            out += flat(value, f"{prefix}{key}.")
+        elif value is not None:
+            out.append((f"{prefix}{key}", value))
+    return out
+
+
+@renderers.register("compare")
+class Compare(Renderer):
+    """Several runs of one experiment played side by side, frame by frame in step."""
+
+    Params = CompareParams
+    models = ("column",)
+    count: int
+    runs: list[str]
+
+    def steps(self) -> list[int]:
+        return frame_steps(self.params, self.count)
+
+    def names(self, run: str) -> list[str]:
+        return [self.params.frames.format(run=run, index=k) for k in range(self.count)]
+
+    def files(self) -> list[str]:
+        return [name for run in self.runs for name in self.names(run)] + [self.params.path]
+
+    def check(self, spec, fail) -> None:  # type: ignore[no-untyped-def]
+        known = [r.name for r in spec.runs]
+        wanted = self.params.runs or known
+        for i, name in enumerate(wanted):
+            if name not in known:
+                raise fail(("runs", i), f"unknown run {name!r}; runs: {', '.join(known)}")
+            if name in wanted[:i]:
+                raise fail(("runs", i), f"run {name!r} is named twice")
+        self.runs = list(wanted)
+        chosen = [spec.run(name) for name in self.runs]
+        first = chosen[0]
+        other = next((r for r in chosen if r.dt != first.dt), None)
+        if other is not None:
+            raise fail(("runs",) if self.params.runs else (), f"runs {first.name!r} (dt {first.dt:g} s) and "
+                       f"{other.name!r} (dt {other.dt:g} s) step differently: frames in step need one dt")
+        shortest = min(chosen, key=lambda r: r.steps)
+        self.count = frame_count(self.params, shortest.steps, fail)
+        try:
+            names = [n for run in self.runs for n in self.names(run)]
+        except (KeyError, IndexError, ValueError) as exc:
+            raise fail(("frames",), f"bad template: {exc}; use {{run}} and {{index}}, e.g. "
+                                    "compare/{run}-{index:03d}.png") from None
+        if len(set(names)) != len(names):
+            raise fail(("frames",), "the template gives two pictures the same name; put {run} and {index} in it")
+        if self.params.path in names:
+            raise fail(("path",), f"{self.params.path!r} is also the name of a picture")
+
+    def frame_steps(self, spec) -> set[int]:  # type: ignore[no-untyped-def]
+        return set(self.steps())
+
+    def write(self, result, out) -> None:  # type: ignore[no-untyped-def]
+        style, steps = self.params.style, self.steps()
+        panels = []
+        for name in self.runs:
+            run = result.run(name)
+            images = self.names(name)
+            for image, step in zip(images, steps):
+                out.write_bytes(image, draw_column(run.frames[step], style).png_bytes())
+            settings = ", ".join(f"{k} {v if isinstance(v, str) else json.dumps(v)}"
+                                 for k, v in flat(run.spec.solver_params.model_dump(mode="json")))
+            panels.append(Panel(name, f"{run.spec.solver_cls.plugin_name}: {settings}", images,
+                                [describe(run.frames[k]) for k in steps]))
+        title = result.spec.description or result.spec.name
+        dt = result.run(self.runs[0]).spec.dt
+        page = controlled_player_html(title, panels, labels(steps, dt), self.params.interval_ms,
+                                      (style.width, style.height))
+        out.write_text(self.params.path, page)
