@@ -8,13 +8,18 @@ contact use ``sqrt(mu_a * mu_b)``, the mix Box2D uses, so a frictionless body ma
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
 
 @dataclass
 class PlanarState:
+    """The bodies' arrays ``(batch, bodies)``, and the monitors solvers update after every step
+    (``stackx.models.planar.monitor.observe``): ``last_y`` and ``touched`` ``(batch, bodies)``,
+    ``peak_depth``, ``reach`` and ``launch`` ``(batch,)``. A state built without monitors starts them from its
+    own positions."""
+
     x: np.ndarray
     y: np.ndarray
     angle: np.ndarray
@@ -26,12 +31,36 @@ class PlanarState:
     hx: np.ndarray
     hy: np.ndarray
     friction: np.ndarray
+    last_y: np.ndarray = field(default=None)  # type: ignore[assignment]
+    peak_depth: np.ndarray = field(default=None)  # type: ignore[assignment]
+    reach: np.ndarray = field(default=None)  # type: ignore[assignment]
+    touched: np.ndarray = field(default=None)  # type: ignore[assignment]
+    launch: np.ndarray = field(default=None)  # type: ignore[assignment]
 
-    FIELDS = ("x", "y", "angle", "vx", "vy", "w", "inv_mass", "inv_inertia", "hx", "hy", "friction")
+    BODY = ("x", "y", "angle", "vx", "vy", "w", "inv_mass", "inv_inertia", "hx", "hy", "friction")
+    MONITORS = ("last_y", "peak_depth", "reach", "touched", "launch")
+    FIELDS = (*BODY, *MONITORS)
 
     def __post_init__(self) -> None:
-        for name in self.FIELDS:
+        for name in self.BODY:
             setattr(self, name, np.ascontiguousarray(getattr(self, name), dtype=np.float64))
+        if all(getattr(self, k) is not None for k in self.MONITORS):
+            return  # a copy: nothing to derive
+        from stackx.models.planar.monitor import observe
+
+        self.last_y = self.y.copy()
+        self.peak_depth = np.zeros(self.batch)
+        self.reach = np.zeros(self.batch)
+        self.touched = np.zeros(self.x.shape, dtype=np.bool_)
+        self.launch = np.full(self.batch, -np.inf)
+        for b in range(self.batch):  # the start's overlaps count; nothing has moved yet, so no launch
+            observe(self.x[b], self.y[b], self.angle[b], self.hx[b], self.hy[b], self.inv_mass[b], 1.0,
+                    self.last_y, self.peak_depth, self.reach, self.touched, self.launch, b)
+        self.launch[:] = -np.inf
+
+    def monitors(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """The arguments ``observe`` takes after a row's arrays and ``dt``."""
+        return self.last_y, self.peak_depth, self.reach, self.touched, self.launch
 
     @property
     def batch(self) -> int:

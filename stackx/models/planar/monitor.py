@@ -1,0 +1,71 @@
+"""Measures taken inside the planar stepping loop, after every step, from positions alone.
+
+Solvers call ``observe`` for each batch row after every step, as column solvers call theirs: what it records
+comes from where the boxes are, found by the model's own collision test (``collide`` with no margin), never
+from what a solver reports about its contacts, so a solver cannot hide an overlap it did not see.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from stackx.kernel import kernel
+from stackx.models.planar.collide import GROUND, collide
+
+TOUCH = 0.0  # a contact point whose depth is above this counts as touching
+
+
+@kernel
+def contact_room(bodies: int) -> int:
+    """Contact points a world of ``bodies`` boxes is first given room for (grown when it needs more)."""
+    return 8 * bodies + 8
+
+
+@kernel
+def observe(x: np.ndarray, y: np.ndarray, angle: np.ndarray, hx: np.ndarray, hy: np.ndarray,
+            inv_mass: np.ndarray, dt: float, last_y: np.ndarray, peak: np.ndarray, reach: np.ndarray,
+            touched: np.ndarray, launch: np.ndarray, b: int) -> None:
+    """Update the monitors of batch row ``b`` (its arrays ``x .. inv_mass``) after a step of ``dt``.
+
+    - ``peak[b]``: the largest contact depth so far (m);
+    - ``reach[b]``: the largest depth as a share of the thinner body's smaller half-size (the ground's
+      contacts: the box's own); above 1 a box has passed half-way into its neighbour or the ground;
+    - ``touched[b, i]``: body ``i`` has had a contact of positive depth at some step;
+    - ``launch[b]``: the fastest upward motion ``(y - last_y)/dt`` of a movable body that had touched
+      something (m/s), whatever moved it;
+    - ``last_y[b, i]``: the height of body ``i`` after this step, for the next one.
+    """
+    bodies = x.shape[0]
+    static = inv_mass == 0.0
+    room = contact_room(bodies)
+    while True:
+        body_a = np.empty(room, np.int64)
+        body_b = np.empty(room, np.int64)
+        normal = np.empty((room, 2))
+        point = np.empty((room, 2))
+        depth = np.empty(room)
+        feature = np.empty(room, np.int64)
+        count = collide(x, y, angle, hx, hy, static, 0.0, body_a, body_b, normal, point, depth, feature)
+        if count <= room:
+            break
+        room = count
+    for k in range(count):
+        d = depth[k]
+        i, j = body_a[k], body_b[k]
+        size = min(hx[j], hy[j])
+        if i != GROUND:
+            size = min(size, min(hx[i], hy[i]))
+        if d > peak[b]:
+            peak[b] = d
+        if d / size > reach[b]:
+            reach[b] = d / size
+        if d > TOUCH:
+            touched[b, j] = True
+            if i != GROUND:
+                touched[b, i] = True
+    for i in range(bodies):
+        if touched[b, i] and not static[i]:
+            rise = (y[i] - last_y[b, i]) / dt
+            if rise > launch[b]:
+                launch[b] = rise
+        last_y[b, i] = y[i]

@@ -1,0 +1,36 @@
+"""The planar monitors against hand-worked depths and motions."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from stackx.models.planar.monitor import observe
+from stackx.models.planar.state import PlanarState
+
+
+def _state(boxes: list[tuple[float, float, float]], inv_mass: float = 1.0) -> PlanarState:
+    """Unit boxes at ``(x, y, angle)``, one batch row."""
+    row = lambda values: np.array([values], dtype=np.float64)  # noqa: E731
+    n = len(boxes)
+    x, y, a = (row(v) for v in zip(*boxes))
+    half = row([0.5] * n)
+    return PlanarState(x, y, a, row([0.0] * n), row([0.0] * n), row([0.0] * n), row([inv_mass] * n),
+                       row([6.0 * inv_mass] * n), half, half.copy(), row([0.5] * n))
+
+
+def test_a_new_state_starts_its_monitors_from_its_own_overlaps() -> None:
+    s = _state([(0.0, 0.49, 0.0), (0.2, 1.46, 0.0)])
+    assert s.peak_depth[0] == pytest.approx(0.03, abs=1e-12)  # box on box: 0.49 + 1 - 1.46
+    assert s.reach[0] == pytest.approx(0.06, abs=1e-12)  # as a share of the half-size 0.5
+    assert s.touched.tolist() == [[True, True]]
+    assert s.launch[0] == -np.inf
+
+
+def test_observe_measures_the_upward_motion_of_touched_boxes_only() -> None:
+    s = _state([(0.0, 0.49, 0.0), (5.0, 3.0, 0.0)])  # box 1 is in the air
+    s.y[0] += [0.02, 0.5]  # both rise over a step of 0.1 s
+    observe(s.x[0], s.y[0], s.angle[0], s.hx[0], s.hy[0], s.inv_mass[0], 0.1, *s.monitors(), 0)
+    assert s.launch[0] == pytest.approx(0.2, abs=1e-12)  # box 0's 0.02 m in 0.1 s; box 1 never touched
+    assert s.last_y[0].tolist() == pytest.approx([0.51, 3.5])
+    assert s.peak_depth[0] == pytest.approx(0.01, abs=1e-12)  # the start's overlap is still the deepest
