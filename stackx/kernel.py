@@ -112,6 +112,19 @@ def compiled(on: bool) -> Iterator[None]:
         _state.compiled = before
 
 
+@contextmanager
+def threads(most: int) -> Iterator[None]:
+    """Run parallel kernels called inside the block (from this Python thread) on at most ``most`` threads. A
+    Dask worker steps one task per thread it has, and a machine gets one such thread per core, so each task
+    keeps to one core instead of every task waking a thread on every core."""
+    before = getattr(_state, "threads", None)
+    _state.threads = most
+    try:
+        yield
+    finally:
+        _state.threads = before
+
+
 class Kernel(Generic[P, R]):
     """A stepping function that runs plain or compiled: a call from Python takes the path of the enclosing
     ``compiled()`` block, or ``enabled()`` outside one."""
@@ -144,13 +157,15 @@ class Kernel(Generic[P, R]):
         """The compiled build for a call. A ``prange`` loop runs the parallel build when its first argument
         (the batch, rows first) has at least ``GRAIN`` elements per thread, on at most one thread per row;
         a smaller batch runs the serial build, which wakes no threads: a parallel region waits for every
-        thread it uses, which costs microseconds on an idle machine and milliseconds on a busy one."""
+        thread it uses, which costs microseconds on an idle machine and milliseconds on a busy one. Inside a
+        ``threads(n)`` block a batch uses at most ``n`` threads."""
         if self.parallel and args:
             import numba
 
             batch = args[0]
             rows, size = (batch.shape[0], batch.size) if getattr(batch, "ndim", 0) else (1, 1)
-            threads = min(numba.config.NUMBA_NUM_THREADS, int(rows), int(size) // GRAIN)
+            most = getattr(_state, "threads", None) or numba.config.NUMBA_NUM_THREADS
+            threads = min(numba.config.NUMBA_NUM_THREADS, most, int(rows), int(size) // GRAIN)
             if threads > 1:
                 build = self.build(parallel=True)  # before the threads start: it picks their layer
                 numba.set_num_threads(threads)
