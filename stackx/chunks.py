@@ -20,7 +20,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -63,7 +62,6 @@ class Stepped:
     measures: list[dict[str, Any]]
     frames: dict[int, Any]
     wall_seconds: float
-    task_seconds: float  # the whole task on the worker, stepping, measuring and setting up
 
 
 @dataclass
@@ -100,7 +98,6 @@ def split(plan: Plan, rows: int | None = None, threads: int = 1) -> list[Chunk]:
 def run_chunk(chunk: Chunk) -> Stepped | Failed:
     """Step a chunk (on a worker) and keep what the client needs; a failure is sent back, not raised, so that
     Dask retries only what may go better elsewhere (a worker dying, a machine out of memory)."""
-    start = time.perf_counter()
     try:
         result = run_experiment(chunk.plan, record=set(chunk.frames))
     except BlowUp as exc:
@@ -110,8 +107,7 @@ def run_chunk(chunk: Chunk) -> Stepped | Failed:
     first = result.runs[0]
     steps = first.spec.steps
     kept = {k: s for k, s in first.frames.batch.items() if k in chunk.frames or k == steps}  # type: ignore[attr-defined]
-    return Stepped([r.measures for r in result.runs], kept, sum(r.wall_seconds for r in result.runs),
-                   time.perf_counter() - start)
+    return Stepped([r.measures for r in result.runs], kept, sum(r.wall_seconds for r in result.runs))
 
 
 def merge(plan: Plan, chunks: Sequence[Chunk], outcomes: Sequence[Stepped]) -> ExperimentResult:
@@ -134,7 +130,7 @@ Rerun = Callable[[list[tuple[Chunk, int]]], list[list[dict[str, Any]]]]
 """Steps chunks again to a step: ``[(chunk, step)]`` -> per chunk, per row, what ``states_at`` gives."""
 
 
-def first_failing_batch(chunks: Sequence[Chunk], outcomes: dict[int, Stepped | Failed]) -> int | None:
+def _first_failing_batch(chunks: Sequence[Chunk], outcomes: dict[int, Stepped | Failed]) -> int | None:
     """The batch (by index) a local run would fail in: the first with a failed chunk among those known."""
     failed = [chunks[i].batch for i, got in outcomes.items() if isinstance(got, Failed)]
     return min(failed) if failed else None
@@ -143,7 +139,7 @@ def first_failing_batch(chunks: Sequence[Chunk], outcomes: dict[int, Stepped | F
 def failure(plan: Plan, chunks: Sequence[Chunk], outcomes: dict[int, Stepped | Failed], rerun: Rerun) -> RunError:
     """The error a local run of ``plan`` raises, from its chunks' outcomes: those of every chunk of the first
     failing batch and of the batches before it must be in ``outcomes``."""
-    bad = first_failing_batch(chunks, outcomes)
+    bad = _first_failing_batch(chunks, outcomes)
     assert bad is not None
     mine = [i for i, c in enumerate(chunks) if c.batch == bad]
     failed = {i: got for i in mine if isinstance(got := outcomes[i], Failed)}

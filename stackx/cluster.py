@@ -8,8 +8,9 @@ machine: one worker process per core, one thread each. The same command runs on 
 A task carries its arguments pickled by stackx, beside the local plugin files this process imported
 (``stackx.registry.local_modules``, their source included) and the ``STACKX_JIT`` settings: the worker
 imports those files under the names they have here before unpickling, so runs of a local solver arrive as
-they left. Workers need stackx itself installed (the same version), and step each task on one core
-(``stackx.kernel.threads``): Dask gives a machine one task per core, so threads per task would only compete.
+they left. The scheduler and the workers need stackx itself installed, the same version (Dask unpickles a
+task's function on both). A worker steps each task on one core (``stackx.kernel.threads``): Dask gives a
+machine one task per core, so threads per task would only compete.
 
 Failures. A run that blows up or a plugin that raises is a result, not an exception: it is sent back and
 reported as a local run reports it (``stackx.chunks.failure``). Anything else a task raises (out of memory, a
@@ -42,7 +43,6 @@ R = TypeVar("R")
 
 RETRIES = 2  # more tries of a task that raised something other than a run's own failure
 CONNECT_TIMEOUT = "10s"  # how long to wait for a scheduler at a given address
-ENVIRON = ("STACKX_JIT", "STACKX_JIT_WORK")  # settings a worker takes from this process for each task
 
 
 @contextmanager
@@ -51,7 +51,7 @@ def connect(address: str | None, chunk: int | None = None) -> Iterator[Cluster]:
     started = None
     if address is None:
         started = LocalCluster(n_workers=os.cpu_count() or 1, threads_per_worker=1, processes=True,
-                               dashboard_address=None, silence_logs=logging.ERROR)
+                               dashboard_address=None, silence_logs=logging.CRITICAL)
         client = Client(started)
     else:
         try:
@@ -93,7 +93,7 @@ class Cluster:
     def submit(self, kind: str, fn: Callable[..., Any], args: tuple[Any, ...]) -> Future:
         """One task: ``fn(*args)`` on a worker, ``args`` pickled here (see the module doc)."""
         payload = pickle.dumps(args, protocol=pickle.HIGHEST_PROTOCOL)
-        environ = {name: os.environ.get(name) for name in ENVIRON}
+        environ = {name: os.environ.get(name) for name in kernel.SETTINGS}
         return self.client.submit(_task, registry.local_modules(), environ, fn, payload,
                                   key=f"{kind}-{uuid.uuid4().hex}", retries=RETRIES, pure=False)
 
@@ -113,13 +113,8 @@ def _task(modules: list[registry.LocalModule], environ: dict[str, str | None], f
     spare = kernel.cache_root() / "plugins"
     for module in modules:
         registry.import_local(module, spare)
-    for name, value in environ.items():
-        if value is None:
-            os.environ.pop(name, None)
-        else:
-            os.environ[name] = value
     args = pickle.loads(payload)
-    with kernel.threads(1):
+    with kernel.settings(environ), kernel.threads(1):
         return fn(*args)
 
 

@@ -28,6 +28,7 @@ import difflib
 import hashlib
 import importlib
 import importlib.util
+import os
 import re
 import sys
 import traceback
@@ -336,7 +337,9 @@ def import_local(local: LocalModule, spare: Path) -> None:
         file = spare / local.name.rpartition(".")[2] / Path(local.path).name
         if not (file.is_file() and file.read_bytes() == local.source):
             file.parent.mkdir(parents=True, exist_ok=True)
-            file.write_bytes(local.source)
+            part = file.with_name(f".{file.name}.{os.getpid()}.tmp")  # whole or absent for a worker beside
+            part.write_bytes(local.source)
+            os.replace(part, file)
     for reg in ALL.values():
         reg._discover()  # built-ins first: one the file imports is not taken for one of its plugins
     with _importing(local.origin):
