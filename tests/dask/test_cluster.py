@@ -137,8 +137,10 @@ outputs:
     pids = cluster.run(os.getpid)
     _, died_before = _prefix(cluster, "stackx-chunk")
     killed: list[str] = []
+    reported: list[int] = []
 
     def kill_one(steps: int) -> None:
+        reported.append(steps)
         if killed:
             return
         busy = [w for w, keys in cluster.processing().items() if any("stackx-chunk" in str(k) for k in keys)]
@@ -151,6 +153,7 @@ outputs:
         result = job.result(kill_one)
     _, died_after = _prefix(cluster, "stackx-chunk")
     assert killed and died_after > died_before  # a chunk was lost with its worker, and run again
+    assert reported == [2 * 300] * 6  # the progress bar: each chunk's steps, once, when it came back
     assert [r.name for r in result.runs] == [r.name for r in spec.runs]
     again = stage(spec, result, tmp_path).staged
     assert sorted(again) == sorted(whole) == ["tall.metrics.json", "tall.txt"]
