@@ -31,6 +31,15 @@ Sets = Annotated[Optional[list[str]], typer.Option("--set", help="override a con
 Plugins = Annotated[Optional[Path], typer.Option("--plugins", help="folder of local plugin *.py files "
                                                  "(default: the nearest plugins/ at or above each config)")]
 Debug = Annotated[bool, typer.Option("--debug", help="show tracebacks")]
+Executor = Annotated[str, typer.Option("--executor", metavar="local|dask",
+                                       help="where runs step: this process (local), or the workers of a Dask "
+                                            "cluster (dask: needs stackx's optional dask extra)")]
+Scheduler = Annotated[Optional[str], typer.Option(
+    "--scheduler", metavar="ADDRESS", help="the Dask scheduler, e.g. tcp://10.0.0.5:8786 (default: "
+                                           "$DASK_SCHEDULER_ADDRESS, else a local cluster of one worker per core)")]
+Chunk = Annotated[Optional[int], typer.Option(
+    "--chunk", metavar="RUNS", help="runs of a sweep per Dask task (default: about four tasks per worker thread, "
+                                    "at most 256 MiB of recorded states each)")]
 
 
 def _version(value: bool) -> None:
@@ -105,12 +114,15 @@ def run(paths: Paths, out: Annotated[Path, typer.Option("--out", "-o", help="out
         sets: Sets = None, plugins: Plugins = None, debug: Debug = False,
         quiet: Annotated[bool, typer.Option("--quiet", "-q", help="no progress bar or table")] = False,
         wide: Annotated[bool, typer.Option("--wide", help="a wider table: launch, reach, full precision")] = False,
-        ) -> None:
+        executor: Executor = "local", scheduler: Scheduler = None, chunk: Chunk = None) -> None:
     """Run experiments and write their artifacts into the output folder."""
     with _guard(debug):
+        from stackx.executor import Choice
         from stackx.session import run_all
 
-        run_all(_load_all(paths, sets, plugins), out, quiet=quiet, wide=wide)
+        choice = Choice(executor, scheduler, chunk)
+        choice.check()
+        run_all(_load_all(paths, sets, plugins), out, quiet=quiet, wide=wide, choice=choice)
 
 
 @app.command(epilog="Example: stackx bench configs/hard/tall-20.yaml --solvers pgs,exact")
@@ -120,19 +132,24 @@ def bench(paths: Paths,
                                 "local plugins join when named)")] = None,
           out: Annotated[Path, typer.Option("--out", "-o", help="output folder")] = Path("out/bench"),
           sets: Sets = None, plugins: Plugins = None, debug: Debug = False,
-          quiet: Annotated[bool, typer.Option("--quiet", "-q", help="no progress bar or tables")] = False) -> None:
+          quiet: Annotated[bool, typer.Option("--quiet", "-q", help="no progress bar or tables")] = False,
+          executor: Executor = "local", scheduler: Scheduler = None) -> None:
     """Run every chosen solver over the configs and a range of its cost knob; write bench.json and report.html."""
     os.environ.setdefault("STACKX_JIT", "1")  # a bench measures compiled solvers, small batches too
     with _guard(debug):
         from stackx.bench.command import bench as run_bench
         from stackx.errors import ConfigError
+        from stackx.executor import Choice
 
+        choice = Choice(executor, scheduler)
+        choice.check()
         names = None
         if solvers is not None:
             names = [n.strip() for n in solvers.split(",") if n.strip()]
             if not names:
                 raise ConfigError("--solvers needs at least one solver name, e.g. --solvers pgs,warm-start")
-        run_bench(paths, names, out, plugins, quiet, command=" ".join(["stackx", *sys.argv[1:]]), sets=sets)
+        run_bench(paths, names, out, plugins, quiet, command=" ".join(["stackx", *sys.argv[1:]]), sets=sets,
+                  choice=choice)
 
 
 @app.command(epilog="Example: stackx validate configs/ configs/hard/")

@@ -58,3 +58,8 @@ def first_line(exc: BaseException) -> str:
     """``Type: first line of the message``: plugin errors (numba's are pages long) stay one line."""
     lines = [ln.strip() for ln in str(exc).splitlines() if ln.strip()]
     return f"{type(exc).__name__}: {lines[0]}" if lines else type(exc).__name__
+
+
+def listing(names: list[str]) -> str:
+    """The runs a message is about, as it names them: ``'a', 'b'`` (every run of a batch, in its order)."""
+    return ", ".join(map(repr, names))

@@ -45,7 +45,7 @@ import os
 import threading
 import types
 from collections.abc import Callable, Iterator
-from contextlib import contextmanager
+from contextlib import AbstractContextManager, contextmanager
 from pathlib import Path
 from typing import Any, Generic, ParamSpec, TypeVar
 
@@ -65,16 +65,43 @@ def prange(*args: int) -> range:
     return range(*args)
 
 
+SETTINGS = ("STACKX_JIT", "STACKX_JIT_WORK")  # the variables that choose the path, as a task carries them
+
+
+def _setting(name: str, default: str) -> str:
+    """A setting from the enclosing ``settings()`` block of this thread, else from the environment."""
+    given = getattr(_state, "settings", None)
+    source = given if given is not None else os.environ
+    return source.get(name) or default
+
+
+@contextmanager
+def _scoped(name: str, value: Any) -> Iterator[None]:
+    """This thread's ``name`` set to ``value`` inside the block, and back to what it was after."""
+    before = getattr(_state, name, None)
+    setattr(_state, name, value)
+    try:
+        yield
+    finally:
+        setattr(_state, name, before)
+
+
+def settings(values: dict[str, str | None]) -> AbstractContextManager[None]:
+    """Read ``STACKX_JIT`` and ``STACKX_JIT_WORK`` from ``values`` (None: unset) in this thread inside the block,
+    not from the environment: a Dask worker steps each task with its sender's settings."""
+    return _scoped("settings", {k: v for k, v in values.items() if v is not None})
+
+
 def mode() -> str:
     """``STACKX_JIT``: ``0`` (plain), ``1`` (compiled) or ``auto``."""
-    value = os.environ.get("STACKX_JIT", AUTO).strip().lower()
+    value = _setting("STACKX_JIT", AUTO).strip().lower()
     return value if value in (PLAIN, COMPILED) else AUTO
 
 
 def min_work() -> int:
     """Box-steps from which ``auto`` compiles (``STACKX_JIT_WORK``)."""
     try:
-        return max(0, int(os.environ.get("STACKX_JIT_WORK", DEFAULT_WORK)))
+        return max(0, int(_setting("STACKX_JIT_WORK", str(DEFAULT_WORK))))
     except ValueError:
         return DEFAULT_WORK
 
@@ -101,15 +128,16 @@ def worth_compiling(work: int) -> bool:
     return enabled()
 
 
-@contextmanager
-def compiled(on: bool) -> Iterator[None]:
+def compiled(on: bool) -> AbstractContextManager[None]:
     """Run the kernels called from Python inside the block compiled (``on``) or plain."""
-    before = getattr(_state, "compiled", None)
-    _state.compiled = on
-    try:
-        yield
-    finally:
-        _state.compiled = before
+    return _scoped("compiled", on)
+
+
+def threads(most: int) -> AbstractContextManager[None]:
+    """Run parallel kernels called inside the block (from this Python thread) on at most ``most`` threads. A
+    Dask worker steps one task per thread it has, and a machine gets one such thread per core, so each task
+    keeps to one core instead of every task waking a thread on every core."""
+    return _scoped("threads", most)
 
 
 class Kernel(Generic[P, R]):
@@ -144,13 +172,15 @@ class Kernel(Generic[P, R]):
         """The compiled build for a call. A ``prange`` loop runs the parallel build when its first argument
         (the batch, rows first) has at least ``GRAIN`` elements per thread, on at most one thread per row;
         a smaller batch runs the serial build, which wakes no threads: a parallel region waits for every
-        thread it uses, which costs microseconds on an idle machine and milliseconds on a busy one."""
+        thread it uses, which costs microseconds on an idle machine and milliseconds on a busy one. Inside a
+        ``threads(n)`` block a batch uses at most ``n`` threads."""
         if self.parallel and args:
             import numba
 
             batch = args[0]
             rows, size = (batch.shape[0], batch.size) if getattr(batch, "ndim", 0) else (1, 1)
-            threads = min(numba.config.NUMBA_NUM_THREADS, int(rows), int(size) // GRAIN)
+            most = getattr(_state, "threads", None) or numba.config.NUMBA_NUM_THREADS
+            threads = min(numba.config.NUMBA_NUM_THREADS, most, int(rows), int(size) // GRAIN)
             if threads > 1:
                 build = self.build(parallel=True)  # before the threads start: it picks their layer
                 numba.set_num_threads(threads)

@@ -14,6 +14,10 @@ the names the file declares (read from its ``register("...")`` calls without run
 only when a config names one of those, or names a plugin nobody defines while some failed file could not be
 read at all. ``get`` also checks, once per plugin, that it has what its kind needs (a ``Params`` model and
 the methods the runner calls), so a half-written plugin fails at config load naming itself and its file.
+
+A local file is imported as the module ``stackx_local_plugins.<stem>_<hash of its path and bytes>``, a name
+that any process gives the same file, so its classes pickle by name: a Dask worker imports the same files
+under the same names (``import_local``) before it unpickles the runs it is sent.
 """
 
 from __future__ import annotations
@@ -21,10 +25,14 @@ from __future__ import annotations
 import ast
 import contextlib
 import difflib
+import hashlib
 import importlib
 import importlib.util
+import os
+import re
 import sys
 import traceback
+import types
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from importlib.metadata import EntryPoint, entry_points
@@ -181,6 +189,7 @@ sinks: Registry[Any] = Registry("sink")
 ALL = {"model": models, "scene": scenes, "solver": solvers, "renderer": renderers, "sink": sinks}
 
 _loaded_files: set[Path] = set()
+LOCAL_PACKAGE = "stackx_local_plugins"  # the package local plugin files are imported into
 
 # what each kind's plugins must be: (module, base class, methods the base leaves to the plugin)
 CONTRACTS = {
@@ -267,19 +276,93 @@ def load_local_plugins(folder: Path) -> None:
         if real in _loaded_files or path.name.startswith("_"):
             continue
         _loaded_files.add(real)
-        module_name = f"stackx_local_plugins.{path.stem}_{len(_loaded_files)}"
-        spec = importlib.util.spec_from_file_location(module_name, real)
-        assert spec is not None and spec.loader is not None
-        module = importlib.util.module_from_spec(spec)
-        sys.modules[module_name] = module
+        try:
+            source = real.read_bytes()
+        except OSError as exc:
+            _failures.append(Failure(str(path), f"{type(exc).__name__}: {exc}", None))
+            continue
+        local = LocalModule(_module_name(real, source), str(path), str(real), source)
         with _importing(str(path)):
             try:
-                spec.loader.exec_module(module)
+                _exec(local.name, real)
             except Exception as exc:
-                sys.modules.pop(module_name, None)
                 names = _declared(real)
                 for kind, reg in ALL.items():
                     started = reg.forget(str(path))
                     if names is not None:
                         names.setdefault(kind, set()).update(started)
                 _failures.append(Failure(str(path), " ".join(_where(exc, real).split()), names))
+            else:
+                _local_modules[local.name] = local
+
+
+@dataclass(frozen=True)
+class LocalModule:
+    """A local plugin file as this process imported it: what another process needs to import the same module
+    under the same name (``import_local``), so that the classes it defines unpickle there."""
+
+    name: str     # the module's name, ``stackx_local_plugins.<stem>_<hash>``
+    origin: str   # the path as it was found (what its plugins' ``plugin_origin`` says)
+    path: str     # the file, resolved
+    source: bytes
+
+
+_local_modules: dict[str, LocalModule] = {}
+
+
+def local_modules() -> list[LocalModule]:
+    """The local plugin files imported in this process, in import order."""
+    return list(_local_modules.values())
+
+
+def _module_name(real: Path, source: bytes) -> str:
+    """The same name for the same file in every process: its stem, and a hash of its path and bytes."""
+    digest = hashlib.sha1(str(real).encode() + b"\0" + source).hexdigest()[:12]
+    stem = re.sub(r"\W", "_", real.stem)
+    return f"{LOCAL_PACKAGE}.{stem}_{digest}"
+
+
+def _exec(name: str, file: Path) -> None:
+    """Import ``file`` as the module ``name`` inside the local plugins' package (made on first use)."""
+    if LOCAL_PACKAGE not in sys.modules:
+        package = types.ModuleType(LOCAL_PACKAGE, "Local plugin files, imported by path.")
+        package.__path__ = []  # a package: its modules import, and so unpickle, by name
+        sys.modules[LOCAL_PACKAGE] = package
+    spec = importlib.util.spec_from_file_location(name, file)
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[name] = module
+    try:
+        spec.loader.exec_module(module)
+    except BaseException:
+        sys.modules.pop(name, None)
+        raise
+
+
+def import_local(local: LocalModule, spare: Path) -> None:
+    """Import a local plugin file of another process under its name, unless a module of that name (the same
+    path and bytes) is here already: from its path when the file there has the same bytes, else from a copy
+    of its source written under ``spare``. Its plugins are not kept in this process's registries (the objects
+    sent here name their classes directly), so files of two senders may register the same names."""
+    if local.name in sys.modules:
+        return
+    file = Path(local.path)
+    try:
+        same = file.read_bytes() == local.source
+    except OSError:
+        same = False
+    if not same:
+        file = spare / local.name.rpartition(".")[2] / Path(local.path).name
+        if not (file.is_file() and file.read_bytes() == local.source):
+            file.parent.mkdir(parents=True, exist_ok=True)
+            part = file.with_name(f".{file.name}.{os.getpid()}.tmp")  # whole or absent for a worker beside
+            part.write_bytes(local.source)
+            os.replace(part, file)
+    for reg in ALL.values():
+        reg._discover()  # built-ins first: one the file imports is not taken for one of its plugins
+    with _importing(local.origin):
+        try:
+            _exec(local.name, file)
+        finally:
+            for reg in ALL.values():
+                reg.forget(local.origin)

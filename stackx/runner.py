@@ -19,7 +19,7 @@ from typing import Any, Protocol
 import numpy as np
 
 from stackx import kernel
-from stackx.errors import BlowUp, RunError, first_line
+from stackx.errors import BlowUp, RunError, first_line, listing
 from stackx.results import ExperimentResult, RunFrames, RunResult
 from stackx.spec import Plan, RunSpec, record_steps
 from stackx.watch import Watch, add_finished, snapshot
@@ -42,6 +42,12 @@ def _batch_key(run: RunSpec) -> tuple[object, ...]:
     return (run.model.plugin_name, run.solver_cls.plugin_name, run.scene.size(), run.steps, tuple(map(repr, run.scene.events())))
 
 
+def batches(runs: list[RunSpec]) -> list[list[RunSpec]]:
+    """The runs as the runner steps them: one batch per model, solver, size, steps and events, in the order it
+    steps them (a batch's rows keep the plan's order)."""
+    return [list(group) for _, group in groupby(sorted(runs, key=_batch_key), key=_batch_key)]
+
+
 def _work(runs: list[RunSpec]) -> int:
     """Box-steps of a batch: what decides whether compiling it pays (``stackx.kernel.worth_compiling``)."""
     return len(runs) * runs[0].scene.size() * runs[0].steps
@@ -54,10 +60,8 @@ def run_experiment(spec: Plan, progress: Progress | None = None,
     result = ExperimentResult(spec)
     wanted = spec.frame_steps() | (record or set())
     by_name: dict[str, RunResult] = {}
-    ordered = sorted(spec.runs, key=_batch_key)
     try:
-        for _, group in groupby(ordered, key=_batch_key):
-            batch = list(group)
+        for batch in batches(spec.runs):
             on = kernel.worth_compiling(_work(batch))
             with kernel.compiled(on):
                 for r in _run_batch(spec, batch, progress, observer, wanted, on):
@@ -135,5 +139,5 @@ def _setup(spec: Plan, runs: list[RunSpec]) -> tuple[Any, Any]:
     except Exception as exc:
         kind = "scene" if plugin is runs[0].scene else "solver"
         raise RunError(f"{spec.file}: {kind} {plugin.plugin_name!r} ({getattr(plugin, 'plugin_origin', '?')}) "
-                       f"failed to set up run(s) {', '.join(repr(r.name) for r in runs)}: {first_line(exc)}") from exc
+                       f"failed to set up run(s) {listing([r.name for r in runs])}: {first_line(exc)}") from exc
     return state, solver

@@ -5,6 +5,8 @@ leaves the output folder as it was for that experiment; each file is replaced at
 ``manifest.json`` is updated right after (see ``stackx.manifest``). A run that blows up leaves its partial
 measures in ``NAME.failed.json`` instead, a file that a later successful run of the experiment removes.
 Wall-clock times, the one thing that differs from run to run, go to ``timing.json`` and nowhere else.
+Where the runs step (this process, or a Dask cluster) is the executor's business (``stackx.executor``); what
+is written does not depend on it.
 """
 
 from __future__ import annotations
@@ -21,24 +23,27 @@ from rich.table import Table
 from stackx import manifest
 from stackx.config import ExperimentSpec
 from stackx.errors import BlowUp, ConfigError, RunError, first_line
+from stackx.executor import Choice, open_executor
 from stackx.outdir import TIMING, OutputDir, failed_file, write_json
 from stackx.outputs import confine
 from stackx.results import ExperimentResult
-from stackx.runner import run_experiment
 
 
-def run_all(specs: list[ExperimentSpec], out: Path, quiet: bool = False, wide: bool = False) -> list[ExperimentResult]:
+def run_all(specs: list[ExperimentSpec], out: Path, quiet: bool = False, wide: bool = False,
+            choice: Choice | None = None) -> list[ExperimentResult]:
+    """Run ``specs`` where ``choice`` says (this process by default) and write each experiment's files."""
     preflight(specs, out)
     console = Console(stderr=True)
     results: list[ExperimentResult] = []
     columns = (TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn())
     try:
-        with Progress(*columns, console=console, transient=True, disable=quiet) as bar:
-            for spec in specs:
+        with open_executor(choice or Choice()) as executor, \
+                Progress(*columns, console=console, transient=True, disable=quiet) as bar:
+            for spec, job in zip(specs, executor.experiments(specs)):
                 total = sum(r.steps for r in spec.runs)
                 task = bar.add_task(spec.name, total=total or 1)
                 try:
-                    result = run_experiment(spec, lambda n, task=task: bar.advance(task, n))
+                    result = job.result(lambda n, task=task: bar.advance(task, n))
                 except BlowUp as exc:
                     kept = out / failed_file(spec.name)
                     write_json(kept, {**exc.report, "resolved": spec.resolved})

@@ -15,7 +15,12 @@ BYTES_PER_BOX = 40  # one recorded state per box: y, v, inv_mass, half (float64)
 def memory_bytes(plan: Plan) -> int:
     """Bytes of the states kept while ``plan`` runs: each run's recorded steps, plus the working state."""
     wanted = plan.frame_steps()
-    return sum((len(record_steps(run, wanted)) + 2) * run.scene.size() * BYTES_PER_BOX for run in plan.runs)
+    return sum(run_bytes(run, wanted) for run in plan.runs)
+
+
+def run_bytes(run: RunSpec, wanted: set[int]) -> int:
+    """Bytes of one run's recorded states (``wanted`` the steps its readers ask for) and its working state."""
+    return (len(record_steps(run, wanted)) + 2) * run.scene.size() * BYTES_PER_BOX
 
 
 def work(plan: Plan) -> int:

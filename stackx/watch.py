@@ -22,7 +22,7 @@ from typing import Any
 
 import numpy as np
 
-from stackx.errors import BlowUp, RunError, first_line
+from stackx.errors import BlowUp, RunError, first_line, listing
 
 
 def snapshot(solver: Any) -> Any | None:
@@ -89,7 +89,7 @@ class Watch:
 
     def _span(self, done: int, n: int) -> str:
         """The steps of a call and its runs, for a message (made only then: a sweep has thousands of runs)."""
-        return f"steps {done + 1}..{done + n} of run(s) {', '.join(map(repr, self.names))}"
+        return f"steps {done + 1}..{done + n} of run(s) {listing(self.names)}"
 
     def check(self, state: Any, done: int, n: int) -> None:
         """After ``advance``: find the first bad step of the call, if the state went bad, and raise."""
@@ -134,13 +134,18 @@ class Watch:
             "solver": self.solver.plugin_name,
             "solver_source": self.origin,
             "max_speed": self.max_speed,
-            "runs": {name: {"status": "blew up" if b == row else "stopped with its batch",
-                            "steps_done": last_good,
-                            "measures": _plain(self.model.state_measures(good.row(b))),
-                            "after_failing_step": _plain(self.model.motion(bad, b))}
+            "runs": {name: stopped(self.model, "blew up" if b == row else "stopped with its batch", last_good,
+                                   good, bad, b)
                      for b, name in enumerate(self.names)},
         }
         raise BlowUp(message, report)
+
+
+def stopped(model: Any, status: str, steps_done: int, good: Any, bad: Any, b: int) -> dict[str, Any]:
+    """What a failed-run report says of row ``b`` of a batch that stopped: its measures in the last good state
+    (``good``, after ``steps_done`` steps) and its motion in the first bad one (``bad``)."""
+    return {"status": status, "steps_done": steps_done, "measures": _plain(model.state_measures(good.row(b))),
+            "after_failing_step": _plain(model.motion(bad, b))}
 
 
 def add_finished(report: dict[str, Any], finished: dict[str, Any], all_runs: list[str]) -> None:

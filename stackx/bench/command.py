@@ -16,10 +16,11 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, T
 from stackx.bench.plan import Case, load_case
 from stackx.bench.report import write
 from stackx.bench.result import CaseResult
-from stackx.bench.sweep import run_case, work
+from stackx.bench.sweep import bench_plan, plan_work, work
 from stackx.bench.tables import print_all
 from stackx.config import config_files, load
 from stackx.errors import ConfigError
+from stackx.executor import Choice, open_executor
 from stackx.outdir import OutputDir
 
 WIDE = 160  # columns of the tables when the output is not a terminal
@@ -39,19 +40,24 @@ def load_cases(paths: list[str], solvers: list[str] | None, plugins: Path | None
 
 
 def bench(paths: list[str], solvers: list[str] | None, out: Path | None, plugins: Path | None = None,
-          quiet: bool = False, command: str = "stackx bench", sets: list[str] | None = None) -> list[CaseResult]:
+          quiet: bool = False, command: str = "stackx bench", sets: list[str] | None = None,
+          choice: Choice | None = None) -> list[CaseResult]:
     """Bench ``paths`` with ``solvers`` (None: every built-in and installed one); write into ``out`` (None:
-    nothing is written, the results are returned)."""
+    nothing is written, the results are returned). Each solver on each case is one job for the executor
+    ``choice`` names (this process by default)."""
     cases = load_cases(paths, solvers, plugins, sets)
     console = Console(stderr=True)
     start = time.perf_counter()
     results = []
     columns = (TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn())
-    with Progress(*columns, console=console, transient=True, disable=quiet) as bar:
+    with open_executor(choice or Choice()) as executor, \
+            Progress(*columns, console=console, transient=True, disable=quiet) as bar:
         task = bar.add_task("bench", total=sum(work(c) for c, _ in cases) or 1)
-        for case, left_out in cases:
+        jobs = [executor.calls(bench_plan, [(case, plan) for plan in case.plans],
+                               [plan_work(case, plan) for plan in case.plans]) for case, _ in cases]
+        for (case, left_out), case_jobs in zip(cases, jobs):
             bar.update(task, description=case.name)
-            records = run_case(case, lambda n: bar.advance(task, n))
+            records = [rec for job in case_jobs for rec in job.result(lambda n: bar.advance(task, n))]
             results.append(CaseResult.build(case, records, left_out))
     wall = time.perf_counter() - start
     if out is not None:

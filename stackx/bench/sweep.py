@@ -159,17 +159,20 @@ def time_plan(case: Case, plan: SolverPlan, records: list[Record]) -> None:
                 rec.timing = timing
 
 
-def run_case(case: Case, progress: Progress | None = None) -> list[Record]:
-    """Every plan of a case: measured, judged and timed, on one thread (see ``one_thread``)."""
-    records: list[Record] = []
+def bench_plan(case: Case, plan: SolverPlan, progress: Progress | None = None) -> list[Record]:
+    """One solver on a case: measured, judged and timed, on one thread (see ``one_thread``). The bench's unit of
+    work: an executor may run each on another machine (``stackx.executor``)."""
     with one_thread():
-        for plan in case.plans:
-            found = run_plan(case, plan, progress)
-            time_plan(case, plan, found)
-            records.extend(found)
-    return records
+        found = run_plan(case, plan, progress)
+        time_plan(case, plan, found)
+    return found
+
+
+def plan_work(case: Case, plan: SolverPlan) -> int:
+    """Steps the measured runs of one solver on a case take (box-steps are not counted: for a progress bar)."""
+    return sum(case.run.steps * len(by_value) for by_value in plan.params.values())
 
 
 def work(case: Case) -> int:
-    """Steps the measured runs of a case take (box-steps are not counted: for a progress bar)."""
-    return sum(case.run.steps * len(by_value) for plan in case.plans for by_value in plan.params.values())
+    """Steps the measured runs of a case take."""
+    return sum(plan_work(case, plan) for plan in case.plans)
