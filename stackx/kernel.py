@@ -26,7 +26,7 @@ import correct``), not as attributes of a module, and read module constants as n
 
 Compiled code is cached under ``STACKX_CACHE_DIR`` (default ``$XDG_CACHE_HOME/stackx``, else
 ``~/.cache/stackx``; numba falls back to its own places when that is not writable), which works the same
-for an installed package and a clone. Each build's folder is named by a hash of its flags, its source file
+for an installed package and a clone. Each build's folder is named by a hash of its flags, its module, its source file
 and those of the kernels it calls: numba itself checks only the function's own file and keys a build by
 its signature alone, so a change to ``correct`` or ``observe`` would otherwise leave every solver loading
 stale code, and a parallel build could be loaded where the serial one was asked for.
@@ -202,7 +202,9 @@ class Kernel(Generic[P, R]):
             if parallel and not os.environ.get("NUMBA_THREADING_LAYER"):
                 numba.config.THREADING_LAYER = THREADING_LAYER
             flags = {"cache": True, "fastmath": False, "error_model": "numpy", "parallel": parallel}
-            with _cache_dir(numba, self.sources, flags):
+            # numba's cached code names the module it was compiled in and imports it when loaded: a file
+            # imported under another module name (a local plugin) needs a build of its own
+            with _cache_dir(numba, self.sources, {**flags, "module": self.py_func.__module__}):
                 self._builds[parallel] = numba.njit(**flags)(self._twin(names))
         return self._builds[parallel]
 
