@@ -16,7 +16,7 @@ with the same numbers:
 Which one runs is set by ``STACKX_JIT``: ``0`` plain, ``1`` compiled, ``auto`` (the default) compiled except
 where the runner knows a batch is too small to pay for it. Importing numba and loading cached code costs
 about half a second, a first compile a few seconds, and the plain path roughly 20 µs per box and step, so
-under ``auto`` a batch of fewer than ``STACKX_JIT_WORK`` box-steps (rows x boxes x steps, default 40,000)
+under ``auto`` a batch of fewer than ``STACKX_JIT_WORK`` box-steps (rows x boxes x steps, times the model's ``step_cost``; default 40,000)
 runs plain and does not import numba at all: the whole lab then runs faster than numba can start.
 
 Compilation is lazy: ``@kernel`` wraps the function, and nothing is compiled until a compiled call is made.

@@ -49,8 +49,9 @@ def batches(runs: list[RunSpec]) -> list[list[RunSpec]]:
 
 
 def _work(runs: list[RunSpec]) -> int:
-    """Box-steps of a batch: what decides whether compiling it pays (``stackx.kernel.worth_compiling``)."""
-    return len(runs) * runs[0].scene.size() * runs[0].steps
+    """Box-steps of a batch weighed by its model's ``step_cost``: what decides whether compiling it pays
+    (``stackx.kernel.worth_compiling``)."""
+    return int(len(runs) * runs[0].scene.size() * runs[0].steps * runs[0].model.step_cost)
 
 
 def run_experiment(spec: Plan, progress: Progress | None = None,

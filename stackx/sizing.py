@@ -4,7 +4,6 @@ that sizes it, instead of after an hour or with the machine swapping."""
 
 from __future__ import annotations
 
-import numpy as np
 
 from stackx.errors import Fail
 from stackx.spec import Plan, RunSpec, record_steps
@@ -46,16 +45,18 @@ def check(plan: Plan, fail: Fail) -> None:
         if id(run.scene) in started:
             continue  # runs with the same scene section share one scene (see config._resolve_run): built once
         started.add(id(run.scene))
-        fastest = _fastest_start(run)
-        if fastest is not None and fastest > limits.max_speed:
-            raise fail(("scene",), f"run {run.name!r} starts with a box at {fastest:g} m/s, over "
-                                    f"limits.max_speed = {limits.max_speed:g}; slow it down or raise the limit")
+        fast = _fast_start(run, limits.max_speed)
+        if fast is not None:
+            raise fail(("scene",), f"run {run.name!r} starts with box {fast[0]} that {fast[1]}; slow it down or "
+                                    "raise the limit")
 
 
-def _fastest_start(run: RunSpec) -> float | None:
-    """The fastest initial speed of a run's boxes (None when the scene cannot be built here: the run says why)."""
+def _fast_start(run: RunSpec, max_speed: float) -> tuple[int, str] | None:
+    """The first body a run's scene starts too fast, by its model's health check, with what is wrong (None when
+    every body is within the limit, or when the scene cannot be built here: the run says why)."""
     try:
-        v = run.scene.build().v
+        state = run.scene.build()
     except Exception:
         return None
-    return float(np.abs(v).max()) if np.size(v) and np.isfinite(v).all() else None
+    found = run.model.offender(state, max_speed)
+    return (found[1], found[3]) if found is not None and found[2] == "speed" else None

@@ -61,6 +61,8 @@ class Model:
     SCALARS: ClassVar[dict[str, str]] = {}  # measure -> what it means (one number per run)
     VECTORS: ClassVar[dict[str, str]] = {}  # measure -> what it means (one number per body)
     window: ClassVar[int] = 0  # final steps whose states ``measure`` needs beside the last one
+    step_cost: ClassVar[float] = 1.0  # plain-Python time of one body-step, in column box-steps: whether
+    # compiling a batch pays is decided on box-steps times this (``stackx.kernel.worth_compiling``)
     reference: ClassVar[str | None] = None  # the bench's reference solver on this model, if it has one
 
     @classmethod
