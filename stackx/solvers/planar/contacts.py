@@ -1,0 +1,460 @@
+"""The stages every planar solver is made of: contact points as per-point arrays, impulses, positions.
+
+A world's contact points live in a **contact table** made by ``contact_workspace``: ``ids`` ``(room, 3)``
+int64 with columns ``A``, ``B`` (the two bodies; ``A`` is -1 for the ground) and ``FEATURE`` (which corners
+and faces touch, from ``collide``), and ``table`` ``(room, COLUMNS)`` float64 with one named column per
+quantity. An impulse ``pn * n + pt * t`` acts on body ``B`` at the point and its opposite on ``A``; the tangent
+is ``t = (-ny, nx)`` and the relative velocity at a point is ``(v_B + w_B x r_B) - (v_A + w_A x r_A)``, as in
+the reference solver's contact problem. The ground is infinitely heavy and never moves.
+
+Functions, in the order a step uses them:
+
+- ``contact_workspace(room)``: an empty table with room for ``room`` points;
+- ``gravity(vy, inv_mass, g, dt)``: ``vy += g * dt`` for every movable body;
+- ``find_contacts(...)``: fill the table from ``collide`` (points within ``margin`` of touching), growing it
+  when the world has more points than room; returns the (maybe new) table and the count;
+- ``prepare(...)``: per point the anchors ``r_A``, ``r_B`` (the point minus each centre), the effective normal
+  and tangent masses ``k = 1 / (m_A^-1 + m_B^-1 + I_A^-1 (r_A x d)^2 + I_B^-1 (r_B x d)^2)`` for ``d = n, t``
+  and the point's friction (``sqrt(mu_A mu_B)``; against the ground the box's own ``mu``);
+- ``anchor_locals(...)``: each point's face plane and touching corner in the frames of the bodies that carry
+  them, so a position stage can measure the separation again after the bodies moved and turned (NGS);
+- ``relative_velocity(...)``: the relative velocity of a point along a direction;
+- ``apply_impulse(...)``: an impulse at a point to both bodies' linear and angular velocities;
+- ``set_targets(...)``: the slowest normal velocity each point accepts: ``depth/dt`` (negative) for a point
+  still apart, so it may close its gap within the step but not more, and 0 for one touching;
+- ``recall(...)`` / ``remember(...)``: warm start: the impulses of the last step's points found again by
+  ``(A, B, FEATURE)``, and the impulses of this step kept for the next;
+- ``warm_start(...)``: apply the carried impulses before the first iteration;
+- ``normal_visit``, ``block_normal``, ``friction_visit``: one point's normal total, the two normal totals of
+  a two-point manifold solved together (Box2D 2.x's block solver), or one point's friction total, with
+  accumulated clamping: the normal total >= 0, the friction total within ``[-mu pn, mu pn]``;
+- ``accumulated_iteration(...)``: one Gauss-Seidel pass over the manifolds, normals then friction, each
+  normal step optionally over-relaxed;
+- ``solve_velocities(...)``: the velocity half of a step with accumulated impulses, the stages above in
+  order: gravity, contacts within ``speculative``, targets, warm start (or none), iterations, remember;
+- ``integrate_positions(...)``: positions and angles move with the velocities over ``dt``;
+- ``separation_push(...)``: one nonlinear Gauss-Seidel pass on positions (Box2D 2.x's position solve): each
+  point's separation measured again from where its bodies are now (``anchor_locals``), and the point pushed
+  apart at its lever arms, turning the bodies, by ``percent * (depth - slop)``, at most ``max_correction``;
+- ``correct_positions(...)``: the lab's position correction carried over: each overlapping point, in table
+  order, pushes its bodies apart along its normal by ``percent * max(depth - slop, 0)``, shared by inverse
+  masses, translation only, each depth measured after the pushes before it.
+
+Translation only: the lab's correction moves boxes, it does not turn them; a push at the centre keeps the
+correction from ever adding a spin the velocity solve did not ask for (a stage that turns boxes by the lever
+arm of the point is NGS, ``stackx.solvers.planar.ngs``).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from stackx.correct import correct
+from stackx.kernel import kernel
+from stackx.models.planar.collide import collide
+
+# ids columns
+A, B, FEATURE = 0, 1, 2
+# table columns: normal, point, depth (from collide); anchors, masses, friction, target, impulses (prepare
+# and the solve); the face normal and point in the reference body's frame and the touching corner in the
+# incident body's frame (anchor_locals)
+NX, NY, PX, PY, DEPTH, RAX, RAY, RBX, RBY, KN, KT, MU, TARGET, PN, PT = range(15)
+LNX, LNY, LFX, LFY, LQX, LQY = range(15, 21)
+COLUMNS = 21
+FLIPPED = 64  # collide's features from 64 up: the reference face is on body B
+BLOCK_CONDITION = 1000.0  # largest condition (k11^2 / det) a two-point block is solved at (Box2D 2.x's)
+
+
+@kernel
+def contact_workspace(room: int) -> tuple[np.ndarray, np.ndarray]:
+    """An empty contact table for ``room`` points: ``(ids, table)``."""
+    return np.zeros((room, 3), np.int64), np.zeros((room, COLUMNS))
+
+
+@kernel
+def gravity(vy: np.ndarray, inv_mass: np.ndarray, g: float, dt: float) -> None:
+    """``vy += g * dt`` for every movable body (static boxes stay still)."""
+    for i in range(vy.shape[0]):
+        if inv_mass[i] > 0.0:
+            vy[i] += g * dt
+
+
+@kernel
+def find_contacts(x: np.ndarray, y: np.ndarray, angle: np.ndarray, hx: np.ndarray, hy: np.ndarray,
+                  inv_mass: np.ndarray, margin: float, ids: np.ndarray,
+                  table: np.ndarray) -> tuple[np.ndarray, np.ndarray, int]:
+    """The world's contact points within ``margin`` of touching: ``(ids, table, count)``; the table is
+    replaced by a larger one when the points do not fit."""
+    static = inv_mass == 0.0
+    while True:
+        count = collide(x, y, angle, hx, hy, static, margin, ids[:, A], ids[:, B], table[:, NX:NY + 1],
+                        table[:, PX:PY + 1], table[:, DEPTH], ids[:, FEATURE])
+        if count <= ids.shape[0]:
+            return ids, table, count
+        ids, table = contact_workspace(count)
+
+
+@kernel
+def effective_mass(ima: float, iia: float, rax: float, ray: float, imb: float, iib: float, rbx: float,
+                   rby: float, dx: float, dy: float) -> float:
+    """``1 / (d . K d)`` of a point along the unit direction ``d``; 0 when nothing can move."""
+    ca = rax * dy - ray * dx
+    cb = rbx * dy - rby * dx
+    total = ima + imb + iia * ca * ca + iib * cb * cb
+    return 1.0 / total if total > 0.0 else 0.0
+
+
+@kernel
+def prepare(x: np.ndarray, y: np.ndarray, inv_mass: np.ndarray, inv_inertia: np.ndarray, friction: np.ndarray,
+            ids: np.ndarray, table: np.ndarray, count: int) -> None:
+    """Anchors, effective normal and tangent masses and friction of every point; impulses set to 0."""
+    for k in range(count):
+        a, b = ids[k, A], ids[k, B]
+        nx, ny = table[k, NX], table[k, NY]
+        px, py = table[k, PX], table[k, PY]
+        rbx, rby = px - x[b], py - y[b]
+        if a >= 0:
+            rax, ray = px - x[a], py - y[a]
+            ima, iia, mu = inv_mass[a], inv_inertia[a], np.sqrt(friction[a] * friction[b])
+        else:
+            rax, ray, ima, iia, mu = 0.0, 0.0, 0.0, 0.0, friction[b]
+        imb, iib = inv_mass[b], inv_inertia[b]
+        table[k, RAX], table[k, RAY], table[k, RBX], table[k, RBY] = rax, ray, rbx, rby
+        table[k, KN] = effective_mass(ima, iia, rax, ray, imb, iib, rbx, rby, nx, ny)
+        table[k, KT] = effective_mass(ima, iia, rax, ray, imb, iib, rbx, rby, -ny, nx)
+        table[k, MU] = mu
+        table[k, TARGET] = 0.0
+        table[k, PN] = 0.0
+        table[k, PT] = 0.0
+
+
+@kernel
+def anchor_locals(x: np.ndarray, y: np.ndarray, angle: np.ndarray, ids: np.ndarray, table: np.ndarray,
+                  count: int) -> None:
+    """Each point's reference face (normal and a point of its plane) in the frame of the body that owns the
+    face, and the touching corner in the frame of the other (the incident body); the ground's frame is the
+    world's. The corner sits ``depth/2`` behind the point along the face normal, the plane ``depth/2`` ahead."""
+    for k in range(count):
+        a, b, feature = ids[k, A], ids[k, B], ids[k, FEATURE]
+        nx, ny, d = table[k, NX], table[k, NY], table[k, DEPTH]
+        qax, qay = table[k, PX] + 0.5 * d * nx, table[k, PY] + 0.5 * d * ny  # on A's surface
+        qbx, qby = table[k, PX] - 0.5 * d * nx, table[k, PY] - 0.5 * d * ny  # on B's surface
+        if a >= 0 and feature >= FLIPPED:  # B owns the face, whose normal points from B to A
+            r, i, fnx, fny, fx, fy, qx, qy = b, a, -nx, -ny, qbx, qby, qax, qay
+        else:
+            r, i, fnx, fny, fx, fy, qx, qy = a, b, nx, ny, qax, qay, qbx, qby
+        if r >= 0:
+            c, s = np.cos(angle[r]), np.sin(angle[r])
+            fx, fy = fx - x[r], fy - y[r]
+            fnx, fny, fx, fy = c * fnx + s * fny, -s * fnx + c * fny, c * fx + s * fy, -s * fx + c * fy
+        c, s = np.cos(angle[i]), np.sin(angle[i])
+        qx, qy = qx - x[i], qy - y[i]
+        table[k, LNX], table[k, LNY] = fnx, fny
+        table[k, LFX], table[k, LFY] = fx, fy
+        table[k, LQX], table[k, LQY] = c * qx + s * qy, -s * qx + c * qy
+
+
+@kernel
+def relative_velocity(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, ids: np.ndarray, table: np.ndarray, k: int,
+                      dx: float, dy: float) -> float:
+    """``((v_B + w_B x r_B) - (v_A + w_A x r_A)) . d`` at point ``k`` (m/s)."""
+    b = ids[k, B]
+    ux = vx[b] - w[b] * table[k, RBY]
+    uy = vy[b] + w[b] * table[k, RBX]
+    a = ids[k, A]
+    if a >= 0:
+        ux -= vx[a] - w[a] * table[k, RAY]
+        uy -= vy[a] + w[a] * table[k, RAX]
+    return ux * dx + uy * dy
+
+
+@kernel
+def apply_impulse(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, inv_mass: np.ndarray, inv_inertia: np.ndarray,
+                  ids: np.ndarray, table: np.ndarray, k: int, px: float, py: float) -> None:
+    """The impulse ``(px, py)`` at point ``k`` on body B, and its opposite on body A."""
+    b = ids[k, B]
+    vx[b] += inv_mass[b] * px
+    vy[b] += inv_mass[b] * py
+    w[b] += inv_inertia[b] * (table[k, RBX] * py - table[k, RBY] * px)
+    a = ids[k, A]
+    if a >= 0:
+        vx[a] -= inv_mass[a] * px
+        vy[a] -= inv_mass[a] * py
+        w[a] -= inv_inertia[a] * (table[k, RAX] * py - table[k, RAY] * px)
+
+
+@kernel
+def set_targets(table: np.ndarray, count: int, dt: float) -> None:
+    """The slowest normal velocity each point accepts: ``depth/dt`` for a point still apart (a speculative
+    point may close its gap within the step, no more), 0 for a touching one (no approach)."""
+    for k in range(count):
+        d = table[k, DEPTH]
+        table[k, TARGET] = d / dt if d < 0.0 else 0.0
+
+
+@kernel
+def recall(ids: np.ndarray, table: np.ndarray, count: int, keys: np.ndarray, carried: np.ndarray,
+           held: int) -> None:
+    """Warm start values: each point's impulses from the last step's point with the same ``(A, B, FEATURE)``,
+    0 for a new point. ``collide`` lists points by ``(A, B)`` in increasing order (the ground's first), and so
+    does the memory, so one walk down both lists finds every match."""
+    j = 0
+    for k in range(count):
+        a, b, f = ids[k, A], ids[k, B], ids[k, FEATURE]
+        while j < held and (keys[j, 0] < a or (keys[j, 0] == a and keys[j, 1] < b)):
+            j += 1
+        i = j
+        while i < held and keys[i, 0] == a and keys[i, 1] == b:
+            if keys[i, 2] == f:
+                table[k, PN], table[k, PT] = carried[i, 0], carried[i, 1]
+                break
+            i += 1
+
+
+@kernel
+def remember(ids: np.ndarray, table: np.ndarray, count: int, keys: np.ndarray, carried: np.ndarray) -> int:
+    """Keep this step's points and impulses for the next (as many as the memory holds); returns how many."""
+    held = min(count, keys.shape[0])
+    for k in range(held):
+        keys[k, 0], keys[k, 1], keys[k, 2] = ids[k, A], ids[k, B], ids[k, FEATURE]
+        carried[k, 0], carried[k, 1] = table[k, PN], table[k, PT]
+    return held
+
+
+@kernel
+def warm_start(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, inv_mass: np.ndarray, inv_inertia: np.ndarray,
+               ids: np.ndarray, table: np.ndarray, count: int) -> None:
+    """Apply every point's carried impulses (``PN``, ``PT``) to the velocities."""
+    for k in range(count):
+        pn, pt = table[k, PN], table[k, PT]
+        if pn != 0.0 or pt != 0.0:
+            nx, ny = table[k, NX], table[k, NY]
+            apply_impulse(vx, vy, w, inv_mass, inv_inertia, ids, table, k, pn * nx - pt * ny, pn * ny + pt * nx)
+
+
+@kernel
+def friction_visit(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, inv_mass: np.ndarray, inv_inertia: np.ndarray,
+                   ids: np.ndarray, table: np.ndarray, k: int) -> None:
+    """Point ``k``'s tangent total moved towards stopping its sliding, kept within ``mu`` times its normal
+    total so far: a point never holds more sideways than it is pressed."""
+    nx, ny = table[k, NX], table[k, NY]
+    limit = table[k, MU] * table[k, PN]
+    old = table[k, PT]
+    total = old - table[k, KT] * relative_velocity(vx, vy, w, ids, table, k, -ny, nx)
+    total = min(max(total, -limit), limit)
+    if total != old:
+        step = total - old
+        apply_impulse(vx, vy, w, inv_mass, inv_inertia, ids, table, k, -step * ny, step * nx)
+        table[k, PT] = total
+
+
+@kernel
+def normal_visit(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, inv_mass: np.ndarray, inv_inertia: np.ndarray,
+                 ids: np.ndarray, table: np.ndarray, k: int, relaxation: float) -> None:
+    """Point ``k``'s normal total moved to meet its target (times ``relaxation``), kept >= 0: the increment
+    may be negative (an earlier visit pushed too hard), only the total may not pull."""
+    nx, ny = table[k, NX], table[k, NY]
+    old = table[k, PN]
+    gap = table[k, TARGET] - relative_velocity(vx, vy, w, ids, table, k, nx, ny)
+    total = max(old + relaxation * table[k, KN] * gap, 0.0)
+    if total != old:
+        step = total - old
+        apply_impulse(vx, vy, w, inv_mass, inv_inertia, ids, table, k, step * nx, step * ny)
+        table[k, PN] = total
+
+
+@kernel
+def block_normal(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, inv_mass: np.ndarray, inv_inertia: np.ndarray,
+                 ids: np.ndarray, table: np.ndarray, k: int, relaxation: float) -> bool:
+    """The normal totals of points ``k`` and ``k + 1`` (one manifold: same bodies, same normal) solved together.
+
+    The two points' complementarity problem (``x >= 0``, ``K x + b >= 0``, ``x . (K x + b) = 0`` with ``K``
+    the 2 x 2 normal mass matrix) has four candidate answers: both pressing, only the first, only the second,
+    neither; the first that satisfies every condition is it, and the change from the current totals is applied.
+    A box resting flat then has its load shared by both corners as the exact solve shares it, where visiting
+    the corners one after the other lets the first take too much and the box rock. With ``relaxation`` w the
+    totals move ``w`` times the way to that answer (kept >= 0). Returns False (nothing
+    done) when ``K`` is too ill-conditioned to invert (the two points nearly on one line through the bodies'
+    lever arms) or no case fits in rounding; the caller then visits the points one by one.
+    """
+    nx, ny = table[k, NX], table[k, NY]
+    j = k + 1
+    a, b = ids[k, A], ids[k, B]
+    ima, iia = (inv_mass[a], inv_inertia[a]) if a >= 0 else (0.0, 0.0)
+    k11, k22 = 1.0 / table[k, KN], 1.0 / table[j, KN]
+    ca1, ca2 = table[k, RAX] * ny - table[k, RAY] * nx, table[j, RAX] * ny - table[j, RAY] * nx  # r x n
+    cb1, cb2 = table[k, RBX] * ny - table[k, RBY] * nx, table[j, RBX] * ny - table[j, RBY] * nx
+    k12 = ima + inv_mass[b] + iia * ca1 * ca2 + inv_inertia[b] * cb1 * cb2
+    det = k11 * k22 - k12 * k12
+    if not k11 * k11 < BLOCK_CONDITION * det:
+        return False
+    a1, a2 = table[k, PN], table[j, PN]
+    b1 = relative_velocity(vx, vy, w, ids, table, k, nx, ny) - table[k, TARGET] - (k11 * a1 + k12 * a2)
+    b2 = relative_velocity(vx, vy, w, ids, table, j, nx, ny) - table[j, TARGET] - (k12 * a1 + k22 * a2)
+    x1 = (k12 * b2 - k22 * b1) / det
+    x2 = (k12 * b1 - k11 * b2) / det
+    if not (x1 >= 0.0 and x2 >= 0.0):
+        x1, x2 = -b1 / k11, 0.0
+        if not (x1 >= 0.0 and k12 * x1 + b2 >= 0.0):
+            x1, x2 = 0.0, -b2 / k22
+            if not (x2 >= 0.0 and k12 * x2 + b1 >= 0.0):
+                x1, x2 = 0.0, 0.0
+                if not (b1 >= 0.0 and b2 >= 0.0):
+                    return False
+    x1, x2 = max(a1 + relaxation * (x1 - a1), 0.0), max(a2 + relaxation * (x2 - a2), 0.0)
+    d1, d2 = x1 - a1, x2 - a2
+    apply_impulse(vx, vy, w, inv_mass, inv_inertia, ids, table, k, d1 * nx, d1 * ny)
+    apply_impulse(vx, vy, w, inv_mass, inv_inertia, ids, table, j, d2 * nx, d2 * ny)
+    table[k, PN], table[j, PN] = x1, x2
+    return True
+
+
+@kernel
+def accumulated_iteration(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, inv_mass: np.ndarray,
+                          inv_inertia: np.ndarray, ids: np.ndarray, table: np.ndarray, count: int,
+                          block: bool, relaxation: float) -> None:
+    """One Gauss-Seidel pass over the manifolds in table order (a manifold: the one or two consecutive points
+    of the same two bodies) with accumulated clamping: the normals first, both at once (``block_normal``) when
+    ``block`` and there are two, else point by point; then each point's friction, bounded by the normal total
+    just found (Box2D v3's order), so after every visit ``pn >= 0`` and ``|pt| <= mu pn`` hold.
+
+    ``relaxation`` w scales each normal step (successive over-relaxation, 0 < w < 2). Plain Gauss-Seidel
+    (w = 1) moves a load one contact per pass against the sweep, and the bending of a tall stack, the slowest
+    of its modes, needs passes growing with the square of its height; w near 2 shortens that to about the
+    height. The price: a lone contact's error then shrinks only by ``|1 - w|`` per pass instead of vanishing
+    in one, so a fresh impact is resolved over more passes (warm starting carries the rest into the next step).
+    """
+    k = 0
+    while k < count:
+        size = 2 if k + 1 < count and ids[k + 1, A] == ids[k, A] and ids[k + 1, B] == ids[k, B] else 1
+        if not (block and size == 2 and block_normal(vx, vy, w, inv_mass, inv_inertia, ids, table, k,
+                                                     relaxation)):
+            for i in range(k, k + size):
+                normal_visit(vx, vy, w, inv_mass, inv_inertia, ids, table, i, relaxation)
+        for i in range(k, k + size):
+            friction_visit(vx, vy, w, inv_mass, inv_inertia, ids, table, i)
+        k += size
+
+
+@kernel
+def solve_velocities(x: np.ndarray, y: np.ndarray, angle: np.ndarray, vx: np.ndarray, vy: np.ndarray,
+                     w: np.ndarray, inv_mass: np.ndarray, inv_inertia: np.ndarray, hx: np.ndarray, hy: np.ndarray,
+                     friction: np.ndarray, g: float, dt: float, speculative: float, carry: bool, iterations: int,
+                     block: bool, relaxation: float, ids: np.ndarray, table: np.ndarray, keys: np.ndarray,
+                     carried: np.ndarray,
+                     held: int) -> tuple[np.ndarray, np.ndarray, int, int]:
+    """The velocity half of a step with accumulated impulses: gravity; the points within ``speculative`` of
+    touching with their anchors, masses and targets; the last step's impulses found again and applied
+    (``carry``; otherwise every point starts from zero); ``iterations`` passes (two-point manifolds' normals
+    together when ``block``); this step's impulses kept.
+    ``relaxation`` scales every normal step (1: plain Gauss-Seidel; see ``accumulated_iteration``).
+    Returns the table (maybe grown), its count and how many points the memory now holds."""
+    gravity(vy, inv_mass, g, dt)
+    ids, table, count = find_contacts(x, y, angle, hx, hy, inv_mass, speculative, ids, table)
+    prepare(x, y, inv_mass, inv_inertia, friction, ids, table, count)
+    set_targets(table, count, dt)
+    if carry:
+        recall(ids, table, count, keys, carried, held)
+        warm_start(vx, vy, w, inv_mass, inv_inertia, ids, table, count)
+    for _ in range(iterations):
+        accumulated_iteration(vx, vy, w, inv_mass, inv_inertia, ids, table, count, block, relaxation)
+    return ids, table, count, remember(ids, table, count, keys, carried)
+
+
+@kernel
+def integrate_positions(x: np.ndarray, y: np.ndarray, angle: np.ndarray, vx: np.ndarray, vy: np.ndarray,
+                        w: np.ndarray, dt: float) -> None:
+    """Move every body with its velocities over ``dt`` (static bodies have none)."""
+    for i in range(x.shape[0]):
+        x[i] += vx[i] * dt
+        y[i] += vy[i] * dt
+        angle[i] += w[i] * dt
+
+
+@kernel
+def correct_positions(x: np.ndarray, y: np.ndarray, inv_mass: np.ndarray, ids: np.ndarray, table: np.ndarray,
+                      count: int, slop: float, percent: float, shift: np.ndarray) -> None:
+    """The lab's correction on the points of the table (found after the positions moved), in table order.
+
+    Each point's depth is the table's less what the pushes before it have already opened along its normal
+    (``shift``, ``(bodies, 2)`` scratch: how far each body was pushed in this stage), which is exact for pushes
+    that only translate. ``correct`` gives the two moves (split by inverse mass; none within slop).
+    """
+    shift[:, :] = 0.0
+    for k in range(count):
+        a, b = ids[k, A], ids[k, B]
+        nx, ny = table[k, NX], table[k, NY]
+        opened = shift[b, 0] * nx + shift[b, 1] * ny
+        ima = 0.0
+        if a >= 0:
+            opened -= shift[a, 0] * nx + shift[a, 1] * ny
+            ima = inv_mass[a]
+        down, up = correct(table[k, DEPTH] - opened, slop, percent, ima, inv_mass[b])
+        if down != 0.0:
+            x[a] -= down * nx
+            y[a] -= down * ny
+            shift[a, 0] -= down * nx
+            shift[a, 1] -= down * ny
+        if up != 0.0:
+            x[b] += up * nx
+            y[b] += up * ny
+            shift[b, 0] += up * nx
+            shift[b, 1] += up * ny
+
+
+@kernel
+def separation_push(x: np.ndarray, y: np.ndarray, angle: np.ndarray, inv_mass: np.ndarray,
+                    inv_inertia: np.ndarray, ids: np.ndarray, table: np.ndarray, count: int, slop: float,
+                    percent: float, max_correction: float) -> float:
+    """One pass over the points in table order, pushing each apart where it is now; returns the deepest
+    depth the pass measured.
+
+    A point's face plane and corner (``anchor_locals``) are carried by their bodies, so the depth is measured
+    from the current positions and angles, rotation included, after every push before it. The push
+    ``percent * (depth - slop)``, at most ``max_correction``, is a position impulse along the face normal at
+    the middle of corner and plane, shared by the bodies' inverse mass and inertia (the point's effective
+    mass for the current lever arms): a box tilted into its support is turned back, which a push at the
+    centre cannot do.
+    """
+    deepest = -np.inf
+    for k in range(count):
+        a, b = ids[k, A], ids[k, B]
+        if a >= 0 and ids[k, FEATURE] >= FLIPPED:
+            r, i = b, a
+        else:
+            r, i = a, b
+        fnx, fny, fx, fy = table[k, LNX], table[k, LNY], table[k, LFX], table[k, LFY]
+        imr, iir = 0.0, 0.0
+        if r >= 0:
+            c, s = np.cos(angle[r]), np.sin(angle[r])
+            fnx, fny = c * fnx - s * fny, s * fnx + c * fny
+            fx, fy = x[r] + c * fx - s * fy, y[r] + s * fx + c * fy
+            imr, iir = inv_mass[r], inv_inertia[r]
+        c, s = np.cos(angle[i]), np.sin(angle[i])
+        qx = x[i] + c * table[k, LQX] - s * table[k, LQY]
+        qy = y[i] + s * table[k, LQX] + c * table[k, LQY]
+        depth = -((qx - fx) * fnx + (qy - fy) * fny)
+        deepest = max(deepest, depth)
+        move = min(percent * (depth - slop), max_correction)
+        if move <= 0.0:
+            continue
+        px, py = 0.5 * (qx + fx), 0.5 * (qy + fy)
+        rix, riy = px - x[i], py - y[i]
+        ci = rix * fny - riy * fnx
+        total = inv_mass[i] + inv_inertia[i] * ci * ci
+        cr = 0.0
+        if r >= 0:
+            rrx, rry = px - x[r], py - y[r]
+            cr = rrx * fny - rry * fnx
+            total += imr + iir * cr * cr
+        if total <= 0.0:
+            continue
+        p = move / total
+        x[i] += inv_mass[i] * p * fnx
+        y[i] += inv_mass[i] * p * fny
+        angle[i] += inv_inertia[i] * p * ci
+        if r >= 0:
+            x[r] -= imr * p * fnx
+            y[r] -= imr * p * fny
+            angle[r] -= iir * p * cr
+    return deepest
