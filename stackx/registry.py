@@ -36,8 +36,8 @@ from stackx.errors import ConfigError
 T = TypeVar("T")
 
 BUILTIN_MODULES = {
-    "model": ["stackx.models.column.model"],
-    "scene": ["stackx.scenes.column"],
+    "model": ["stackx.models.column.model", "stackx.models.planar.model"],
+    "scene": ["stackx.scenes.column", "stackx.scenes.planar"],
     "solver": ["stackx.solvers.pgs", "stackx.solvers.warm_start", "stackx.solvers.exact",
                "stackx.solvers.baumgarte", "stackx.solvers.split_impulse",
                "stackx.solvers.ngs", "stackx.solvers.soft_step",
