@@ -1,7 +1,7 @@
 """The contact problem a step of a planar world sets itself, and its reference solve with memory across steps.
 
-From the state before the step: gravity first (the free velocity), then every contact point within
-``speculative`` of touching, with anchors, effective masses, friction and targets made by the stages every
+From the state before the step: gravity first (the free velocity), then every contact point closer than
+``speculative`` to touching (with ``speculative`` 0, the points that overlap: the lab's rule), with anchors, effective masses, friction and targets made by the stages every
 planar solver uses (``stackx.solvers.planar.contacts``): a touching point must not approach (target 0), a
 point still ``gap`` apart may approach by at most what closes the gap within the step (target ``-gap/dt``).
 So the reference solves the very problem the solvers set themselves.
@@ -20,7 +20,7 @@ from stackx.models.planar.monitor import contact_room
 from stackx.models.planar.problem import ContactProblem
 from stackx.models.planar.reference import Solution, solve
 from stackx.models.planar.state import PlanarState
-from stackx.solvers.planar.contacts import (A, B, MU, NX, NY, PN, PT, RAX, RAY, RBX, RBY, TARGET,
+from stackx.solvers.planar.contacts import (A, B, DEPTH, MU, NX, NY, PN, PT, RAX, RAY, RBX, RBY, TARGET,
                                             contact_workspace, find_contacts, gravity, prepare, recall, remember,
                                             set_targets)
 
@@ -34,7 +34,13 @@ def gather(x: np.ndarray, y: np.ndarray, angle: np.ndarray, vy: np.ndarray, inv_
     ``margin``, their anchors, masses, friction and targets, and the remembered impulses of the points seen
     last step in ``PN``, ``PT``. Returns the (maybe grown) table and the count."""
     gravity(vy, inv_mass, g, dt)
-    ids, table, count = find_contacts(x, y, angle, hx, hy, inv_mass, margin, ids, table)
+    ids, table, found = find_contacts(x, y, angle, hx, hy, inv_mass, margin, ids, table)
+    count = 0
+    for k in range(found):  # keep the points closer than ``margin``: at 0, those overlapping (the lab's rule)
+        if table[k, DEPTH] > -margin:
+            ids[count, :] = ids[k, :]
+            table[count, :] = table[k, :]
+            count += 1
     prepare(x, y, inv_mass, inv_inertia, friction, ids, table, count)
     set_targets(table, count, dt)
     recall(ids, table, count, keys, carried, held)
