@@ -11,7 +11,7 @@ from tests.conftest import CONFIGS, Cli
 
 def test_bench_runs_planar_cases_end_to_end(cli: Cli, tmp_path: Path) -> None:
     cases = [CONFIGS / "planar" / f"{n}.yaml" for n in ("ramp-stick", "ramp-slide")]
-    done = cli("bench", *cases, "--solvers", "planar-pgs,planar-exact", "--out", tmp_path, "--set", "steps=60",
+    done = cli("bench", *cases, "--solvers", "planar-pgs,planar-exact", "--out", tmp_path, "--set", "steps=30",
                "--set", "bench.knob=[1,8]", "--set", "bench.timing.steps=10", "--set", "bench.timing.repeats=1",
                timeout=300)
     assert done.returncode == 0, done.stderr
@@ -19,7 +19,7 @@ def test_bench_runs_planar_cases_end_to_end(cli: Cli, tmp_path: Path) -> None:
     assert [c["name"] for c in doc["cases"]] == ["ramp-stick", "ramp-slide"]
     assert set(doc["matrix"]) == {"planar-pgs", "planar-exact"}
     for case in doc["cases"]:
-        assert case["boxes"] == 2 and case["steps"] == 60
+        assert case["boxes"] == 2 and case["steps"] == 30
         runs = {(r["solver"], r["value"]) for r in case["records"]}
         assert runs == {("planar-pgs", 1), ("planar-pgs", 8), ("planar-pgs", 15), ("planar-exact", None)}
         for r in case["records"]:
@@ -35,6 +35,8 @@ def test_bench_runs_planar_cases_end_to_end(cli: Cli, tmp_path: Path) -> None:
             assert r["criteria"]["never_launched"]["checks"][0]["measure"] == "launch"
         exact = next(r for r in case["records"] if r["solver"] == "planar-exact")
         assert exact["reference"] and exact["passed"]
+        assert exact["error"]["rms"] < 1e-9  # measured every step against the reference: itself
+        assert all(r["error"]["steps"] == 30 for r in case["records"])
         assert exact["measures"]["slide_error"] < 1e-6
         assert doc["matrix"]["planar-exact"][case["name"]]["passed"]
     page = (tmp_path / "report.html").read_text()
