@@ -33,14 +33,14 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
 from stackx.kernel import kernel, prange
-from stackx.models.planar.monitor import contact_room, observe
+from stackx.models.planar.monitor import observe
 from stackx.models.planar.state import PlanarState
 from stackx.registry import solvers
 from stackx.solvers.contacts import speculative_field
 from stackx.solvers.planar.contacts import (A, B, KN, KT, MU, NX, NY, PN, PT, apply_impulse, contact_workspace,
                                             find_contacts, gravity, integrate_positions, prepare, recall,
                                             relative_velocity, remember, warm_start)
-from stackx.solvers.planar.pgs import PlanarSolver
+from stackx.solvers.planar.base import PlanarMemorySolver
 from stackx.solvers.planar.substep import base_separations, moved, separation, step_start
 from stackx.solvers.soft_step import STATIC_HERTZ, SUBSTEP_HERTZ, soft
 
@@ -165,7 +165,7 @@ def soft_step_advance(x: np.ndarray, y: np.ndarray, angle: np.ndarray, vx: np.nd
 
 
 @solvers.register("planar-soft-step")
-class PlanarSoftStep(PlanarSolver):
+class PlanarSoftStep(PlanarMemorySolver):
     """Box2D v3's substepped soft contacts with friction and relax, on rotating boxes."""
 
     Params = PlanarSoftStepParams
@@ -179,26 +179,13 @@ class PlanarSoftStep(PlanarSolver):
         self.relax = self.flags("relax")
         self.warm = self.flags("warm_start")
         self.speculative = self.column("speculative")
-        self.memory: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
 
     @classmethod
     def passes(cls, params: PlanarSoftStepParams) -> int:
         return params.substeps * (2 if params.relax else 1)
 
-    def remembered(self, state: PlanarState) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Each row's points ``(A, B, FEATURE)``, their impulses ``(PN, PT)`` and how many: none at first."""
-        room = contact_room(state.bodies)
-        if self.memory is None or self.memory[0].shape[:2] != (state.batch, room):
-            self.memory = (np.zeros((state.batch, room, 3), np.int64), np.zeros((state.batch, room, 2)),
-                           np.zeros(state.batch, np.int64))
-        return self.memory
-
-    def remove_box(self, state: PlanarState, box: int) -> None:
-        """Forget every point: points name bodies by index, and the indices above ``box`` move down."""
-        self.memory = None
-
     def advance(self, state: PlanarState, steps: int) -> None:
         s = state
         soft_step_advance(s.x, s.y, s.angle, s.vx, s.vy, s.w, s.inv_mass, s.inv_inertia, s.hx, s.hy, s.friction,
                           self.gravity, self.dt, self.substeps, self.hertz, self.damping_ratio, self.push_out,
-                          self.relax, self.warm, self.speculative, *self.remembered(state), *s.monitors(), steps)
+                          self.relax, self.warm, self.speculative, *self.memory(state), *s.monitors(), steps)

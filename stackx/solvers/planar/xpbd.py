@@ -43,7 +43,7 @@ from stackx.solvers.contacts import speculative_field
 from stackx.solvers.planar.contacts import (A, B, MU, NX, NY, PN, PT, RAX, RAY, RBX, RBY, apply_impulse,
                                             contact_workspace, effective_mass, find_contacts, gravity,
                                             integrate_positions, prepare, relative_velocity)
-from stackx.solvers.planar.pgs import PlanarSolver
+from stackx.solvers.planar.base import PlanarSolver
 from stackx.solvers.planar.soft_step import manifold_end
 from stackx.solvers.planar.substep import anchor, base_separations, moved, moved_body, separation, step_start
 
@@ -302,6 +302,3 @@ class PlanarXPBD(PlanarSolver):
         s = state
         xpbd_advance(s.x, s.y, s.angle, s.vx, s.vy, s.w, s.inv_mass, s.inv_inertia, s.hx, s.hy, s.friction,
                      self.gravity, self.dt, self.substeps, self.compliance, self.speculative, *s.monitors(), steps)
-
-    def remove_box(self, state: PlanarState, box: int) -> None:
-        """Nothing to forget: XPBD keeps no memory between steps."""
