@@ -34,53 +34,33 @@ lean over. At 30 Hz a stack of 1 m boxes topples from about 20 (Box2D v3.1 does 
 from __future__ import annotations
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import Field
 
 from stackx.kernel import kernel, prange
 from stackx.models.planar.monitor import observe
 from stackx.models.planar.state import PlanarState
 from stackx.registry import solvers
-from stackx.solvers.contacts import speculative_field
+from stackx.solvers.planar.base import PlanarMemorySolver
 from stackx.solvers.planar.contacts import (A, B, KN, KT, MU, NX, NY, PN, PT, apply_impulse, contact_workspace,
                                             find_contacts, gravity, integrate_positions, prepare, recall,
                                             relative_velocity, remember, warm_start)
-from stackx.solvers.planar.base import PlanarMemorySolver
-from stackx.solvers.planar.substep import base_separations, moved, separation, step_start
-from stackx.solvers.soft_step import STATIC_HERTZ, SUBSTEP_HERTZ, soft
+from stackx.solvers.planar.substep import base_separations, manifold_end, moved, separation, step_start
+from stackx.solvers.soft_step import STATIC_HERTZ, SUBSTEP_HERTZ, SoftStepParams, soft
 
 
-class PlanarSoftStepParams(BaseModel):
-    model_config = ConfigDict(extra="forbid")
-    substeps: int = Field(4, gt=0, le=10_000,
-                          description="substeps per step, each one solve and one relax pass: more make contacts "
-                                      "stiffer (the hertz cap rises) and piles quieter, at linear cost")
+class PlanarSoftStepParams(SoftStepParams):
+    """The column's soft step knobs (substeps, damping ratio, push-out, relax, speculative, Box2D v3's
+    defaults), a contact hertz that may follow the substeps, and warm starting."""
+
     contact_hertz: float | None = Field(30.0, gt=0, allow_inf_nan=False,
                                         description="stiffness of a contact as a spring frequency (Hz), capped "
                                                     "at a quarter of the substep rate; contacts with a static "
                                                     "side use twice it: higher sinks less under load and keeps "
                                                     "a tall stack from leaning over, but needs more substeps; "
                                                     "null: the cap, so stiffness grows with the substeps")
-    damping_ratio: float = Field(10.0, ge=0, allow_inf_nan=False,
-                                 description="damping of the contact spring: high values (10) push out without "
-                                             "bouncing, low ones spring back")
-    push_out: float = Field(3.0, gt=0, allow_inf_nan=False,
-                            description="largest separating speed the spring may ask for (m/s): keeps a deep "
-                                        "overlap from launching boxes, at the cost of a slower recovery")
-    relax: bool = Field(True, description="after positions move, solve once more without bias so the push-out "
-                                          "speed leaves the boxes; off keeps it (boxes bounce off overlap)")
     warm_start: bool = Field(True, description="start each step from the impulses the same points carried at "
                                                "the end of the last one: off rebuilds every load from zero, and "
                                                "a tall stack sinks and sways")
-    speculative: float = speculative_field(0.02)
-
-
-@kernel
-def manifold_end(ids: np.ndarray, start: int, count: int) -> int:
-    """One past the last point of the manifold (the same two bodies) that begins at ``start``."""
-    end = start + 1
-    while end < count and ids[end, A] == ids[start, A] and ids[end, B] == ids[start, B]:
-        end += 1
-    return end
 
 
 @kernel
