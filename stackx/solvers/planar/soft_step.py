@@ -21,7 +21,7 @@ speed asked per metre of overlap ``w / (2z + h w)``, capped at ``push_out``, the
 visit applies, and the share of the accumulated impulse it lets go. The contact frequency is capped at an
 eighth of the substep rate, as from Box2D v3.1.1 (v3.0 and v3.1.0, and the column's soft step, allow a
 quarter): at a quarter, 12 or 16 substeps left the 20-row pyramid jittering and drifting by 12-14 cm in
-10 s, at an eighth it rests. At the defaults (4 substeps at 60 Hz) both caps are above 30 Hz.
+10 s, at an eighth it rests. At the defaults (4 substeps at 60 Hz) both caps allow the 30 Hz.
 
 Published defaults (Box2D v3, ``b2DefaultWorldDef`` and the solver): 4 substeps at 60 Hz, one solve and one
 relax pass per substep, contact hertz 30, damping ratio 10, push-out 3 m/s, speculative distance 4 x the
