@@ -69,4 +69,7 @@ class Planar(Model):
 
     @classmethod
     def step_log(cls, criteria: Any) -> Any:
-        return None
+        """Every step against ``planar-exact``'s solve of the same problem (``stackx.models.planar.error``)."""
+        from stackx.models.planar.error import StepLog
+
+        return StepLog(criteria)
