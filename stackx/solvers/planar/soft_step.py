@@ -33,15 +33,15 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
 from stackx.kernel import kernel, prange
-from stackx.models.planar.monitor import contact_room, observe
+from stackx.models.planar.monitor import observe
 from stackx.models.planar.state import PlanarState
 from stackx.registry import solvers
 from stackx.solvers.contacts import speculative_field
-from stackx.solvers.planar.contacts import (A, B, DEPTH, KN, KT, MU, NX, NY, PN, PT, RAX, RAY, RBX, RBY,
-                                            apply_impulse, contact_workspace, find_contacts, gravity,
-                                            integrate_positions, prepare, recall, relative_velocity, remember,
-                                            warm_start)
-from stackx.solvers.planar.pgs import PlanarSolver
+from stackx.solvers.planar.contacts import (A, B, KN, KT, MU, NX, NY, PN, PT, apply_impulse, contact_workspace,
+                                            find_contacts, gravity, integrate_positions, prepare, recall,
+                                            relative_velocity, remember, warm_start)
+from stackx.solvers.planar.base import PlanarMemorySolver
+from stackx.solvers.planar.substep import base_separations, moved, separation, step_start
 from stackx.solvers.soft_step import STATIC_HERTZ, SUBSTEP_HERTZ, soft
 
 
@@ -66,40 +66,6 @@ class PlanarSoftStepParams(BaseModel):
                                                "the end of the last one: off rebuilds every load from zero, and "
                                                "a tall stack sinks and sways")
     speculative: float = speculative_field(0.02)
-
-
-@kernel
-def moved(x: np.ndarray, y: np.ndarray, angle: np.ndarray, start: np.ndarray, since: np.ndarray) -> None:
-    """How far each body has moved since the step began (``start``: x, y, angle per body) into ``since``:
-    ``dx, dy`` and the cosine and sine of its turn."""
-    for i in range(x.shape[0]):
-        since[i, 0], since[i, 1] = x[i] - start[i, 0], y[i] - start[i, 1]
-        turn = angle[i] - start[i, 2]
-        since[i, 2], since[i, 3] = np.cos(turn), np.sin(turn)
-
-
-@kernel
-def base_separations(ids: np.ndarray, table: np.ndarray, count: int, base: np.ndarray) -> None:
-    """Each point's separation when the step began (``-depth``) less the part its anchors give, so that
-    ``separation`` can add back the anchors as they turn: ``base = -depth - (r_B - r_A) . n``."""
-    for k in range(count):
-        lever_x, lever_y = table[k, RBX] - table[k, RAX], table[k, RBY] - table[k, RAY]
-        base[k] = -table[k, DEPTH] - (lever_x * table[k, NX] + lever_y * table[k, NY])
-
-
-@kernel
-def separation(ids: np.ndarray, table: np.ndarray, base: np.ndarray, since: np.ndarray, k: int) -> float:
-    """Separation of point ``k`` now (m, negative: overlap): the anchors move and turn with their bodies,
-    the normal is held as it was when the step began (Box2D v3's substep separation)."""
-    a, b = ids[k, A], ids[k, B]
-    rx, ry = table[k, RBX], table[k, RBY]
-    px = since[b, 0] + since[b, 2] * rx - since[b, 3] * ry
-    py = since[b, 1] + since[b, 3] * rx + since[b, 2] * ry
-    if a >= 0:
-        rx, ry = table[k, RAX], table[k, RAY]
-        px -= since[a, 0] + since[a, 2] * rx - since[a, 3] * ry
-        py -= since[a, 1] + since[a, 3] * rx + since[a, 2] * ry
-    return base[k] + px * table[k, NX] + py * table[k, NY]
 
 
 @kernel
@@ -185,9 +151,7 @@ def soft_step_advance(x: np.ndarray, y: np.ndarray, angle: np.ndarray, vx: np.nd
             base_separations(ids, table, count, base)
             if warm[b]:
                 recall(ids, table, count, keys[b], carried[b], held[b])
-            for i in range(n):
-                start[i, 0], start[i, 1], start[i, 2] = xb[i], yb[i], ab[i]
-                since[i, 0], since[i, 1], since[i, 2], since[i, 3] = 0.0, 0.0, 1.0, 0.0
+            step_start(xb, yb, ab, start, since)
             for _ in range(substeps[b]):
                 gravity(vyb, im, g[b], h)
                 warm_start(vxb, vyb, wb, im, ii, ids, table, count)
@@ -201,7 +165,7 @@ def soft_step_advance(x: np.ndarray, y: np.ndarray, angle: np.ndarray, vx: np.nd
 
 
 @solvers.register("planar-soft-step")
-class PlanarSoftStep(PlanarSolver):
+class PlanarSoftStep(PlanarMemorySolver):
     """Box2D v3's substepped soft contacts with friction and relax, on rotating boxes."""
 
     Params = PlanarSoftStepParams
@@ -215,26 +179,13 @@ class PlanarSoftStep(PlanarSolver):
         self.relax = self.flags("relax")
         self.warm = self.flags("warm_start")
         self.speculative = self.column("speculative")
-        self.memory: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
 
     @classmethod
     def passes(cls, params: PlanarSoftStepParams) -> int:
         return params.substeps * (2 if params.relax else 1)
 
-    def remembered(self, state: PlanarState) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Each row's points ``(A, B, FEATURE)``, their impulses ``(PN, PT)`` and how many: none at first."""
-        room = contact_room(state.bodies)
-        if self.memory is None or self.memory[0].shape[:2] != (state.batch, room):
-            self.memory = (np.zeros((state.batch, room, 3), np.int64), np.zeros((state.batch, room, 2)),
-                           np.zeros(state.batch, np.int64))
-        return self.memory
-
-    def remove_box(self, state: PlanarState, box: int) -> None:
-        """Forget every point: points name bodies by index, and the indices above ``box`` move down."""
-        self.memory = None
-
     def advance(self, state: PlanarState, steps: int) -> None:
         s = state
         soft_step_advance(s.x, s.y, s.angle, s.vx, s.vy, s.w, s.inv_mass, s.inv_inertia, s.hx, s.hy, s.friction,
                           self.gravity, self.dt, self.substeps, self.hertz, self.damping_ratio, self.push_out,
-                          self.relax, self.warm, self.speculative, *self.remembered(state), *s.monitors(), steps)
+                          self.relax, self.warm, self.speculative, *self.memory(state), *s.monitors(), steps)
