@@ -132,7 +132,6 @@ steps: 20
         log = StepLog(Criteria())
         run_experiment(spec, None, log)
         out[name] = [row.error() for row in log.rows.values()]
-    print({name: [(e["rms"], e["unsolved"]) for e in errors] for name, errors in out.items()})
     return out
 
 
