@@ -88,9 +88,11 @@ def doc(bench_out: Path) -> dict:
 
 
 def builtin_solvers() -> set[str]:
-    """What a bench runs by default: the built-in solvers but the engines, which join when named."""
+    """What a bench of column cases runs by default: the built-in solvers that step the column, but the
+    engines, which join when named."""
     return {e.name for e in registry.solvers.entries()
-            if e.origin == "built-in" and getattr(e.plugin, "bench_by_default", True)}
+            if e.origin == "built-in" and getattr(e.plugin, "bench_by_default", True)
+            and "column" in e.plugin.models}
 
 
 def test_every_builtin_solver_runs_every_case(doc: dict) -> None:
