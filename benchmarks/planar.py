@@ -165,8 +165,14 @@ def run(json_path: Path, iterations: int, steps: int, repeats: int, config: Path
         subjects["pymunk"] = PymunkPyramid(initial, iterations, gravity, dt)
         passes["pymunk"] = iterations
         knobs["pymunk"] = f"iterations={iterations}"
-    for sub in subjects.values():  # compile (or load the cache) and import before anything is timed
-        sub.prepare(1)()
+    failed: dict[str, str] = {}
+    for name, sub in list(subjects.items()):  # compile (or load the cache) and import before anything is timed
+        try:
+            sub.prepare(1)()
+        except Exception as exc:  # a solver that cannot step the pyramid is reported, the others are timed
+            failed[name] = f"{type(exc).__name__}: {str(exc).strip().splitlines()[0]}"
+            del subjects[name]
+            console.print(f"[yellow]{name} could not step the pyramid and is left out: {failed[name]}[/yellow]")
     samples: dict[str, Sample] = interleaved({n: (lambda s=s: s.prepare(steps), steps) for n, s in subjects.items()},
                                              repeats)
     reference = samples.get("pymunk")
@@ -186,7 +192,7 @@ def run(json_path: Path, iterations: int, steps: int, repeats: int, config: Path
                       f"{drift:.3g}", f"{turn:.3g}")
     console.print(table)
     doc = {"config": str(config), "boxes": initial.bodies, "steps": steps, "repeats": repeats,
-           "iterations": iterations, "pymunk": version, "us_per_step": rows}
+           "iterations": iterations, "pymunk": version, "us_per_step": rows, "failed": failed}
     json_path.parent.mkdir(parents=True, exist_ok=True)
     json_path.write_text(json.dumps(doc, indent=2) + "\n")
     console.print(f"figures written to {json_path}")

@@ -38,22 +38,26 @@ def test_plain_and_compiled_steps_agree_to_the_bit() -> None:
         assert np.array_equal(plain, built)
 
 
-def test_a_box_dropped_flat_comes_to_rest_level_at_the_soft_contacts_steady_sink() -> None:
+@pytest.mark.parametrize(("params", "hertz"), [({}, 30.0), ({"contact_hertz": None, "substeps": 8}, 120.0),
+                                              ({"contact_hertz": None}, 60.0)])
+def test_a_box_dropped_flat_comes_to_rest_level_at_the_soft_contacts_steady_sink(params: dict[str, object],
+                                                                                 hertz: float) -> None:
     """Level and still, at the sink of its springs: at rest each of the two bottom corners carries half the weight through a spring of ``k w^2``, with
     ``k = 1 / (1/m + (r x n)^2 / I)`` the corner's effective mass and ``w = 2 pi 2 hertz`` (the ground is
-    static): the box sits ``(m g / 2) / (k w^2)`` deep."""
+    static): the box sits ``(m g / 2) / (k w^2)`` deep. With ``contact_hertz: null`` the hertz is a quarter
+    of the substep rate: 60 Hz at 4 substeps, 120 Hz at 8."""
     state = boxes([0.0], [0.75], [0.0], [(0.5, 0.5)], [1.0], [0.6])  # 25 cm above the ground
     with compiled(True):
-        _soft().advance(state, 120)
+        _soft(**params).advance(state, 120)
     mass, inertia = 1.0, 1.0 / 6.0
     k = 1.0 / (1.0 / mass + 0.5 ** 2 / inertia)
-    omega = 2.0 * math.pi * 2.0 * 30.0
+    omega = 2.0 * math.pi * 2.0 * hertz
     sink = (mass * G / 2.0) / (k * omega ** 2)
     assert state.y[0, 0] == pytest.approx(0.5 - sink, abs=1e-9)
     assert abs(state.angle[0, 0]) < 1e-9 and abs(state.w[0, 0]) < 1e-9
     assert abs(state.vx[0, 0]) < 1e-9 and abs(state.vy[0, 0]) < 1e-9
-    assert abs(state.x[0, 0]) < 1e-5  # the corners are solved one after the other: the landing's first
-    # visit tips the box by a hair, and friction holds the corner it turns about, so it lands 2 um aside
+    assert abs(state.x[0, 0]) < 1e-4  # the corners are solved one after the other: the landing's first
+    # visit tips the box by a hair, and friction holds the corner it turns about, so it lands 2-18 um aside
 
 
 @pytest.mark.parametrize("degrees", [20.0, 26.0, 27.0, 35.0])
