@@ -18,8 +18,10 @@ times with ``h = dt / substeps``:
 Restitution is 0. With ``w = 2 pi hertz``, ``z`` the damping ratio and ``h`` the substep the soft
 coefficients are Box2D v3's (``stackx.solvers.soft_step.soft``, shared with the column): the separating
 speed asked per metre of overlap ``w / (2z + h w)``, capped at ``push_out``, the share of the full impulse a
-visit applies, and the share of the accumulated impulse it lets go. The contact frequency is capped at a
-quarter of the substep rate (Box2D v3.0 and v3.1; 3.1.1 lowered it to an eighth).
+visit applies, and the share of the accumulated impulse it lets go. The contact frequency is capped at an
+eighth of the substep rate, as from Box2D v3.1.1 (v3.0 and v3.1.0, and the column's soft step, allow a
+quarter): at a quarter, 12 or 16 substeps left the 20-row pyramid jittering and drifting by 12-14 cm in
+10 s, at an eighth it rests. At the defaults (4 substeps at 60 Hz) both caps allow the 30 Hz.
 
 Published defaults (Box2D v3, ``b2DefaultWorldDef`` and the solver): 4 substeps at 60 Hz, one solve and one
 relax pass per substep, contact hertz 30, damping ratio 10, push-out 3 m/s, speculative distance 4 x the
@@ -28,59 +30,43 @@ with the weight above it, which is how a tall stack stays quiet without position
 softness limits how tall a stack stands: a face's two corners resist tilting with springs of ``k w^2``
 (``k`` the corner's effective mass), which do not grow with the load, so past some height the boxes above
 lean over. At 30 Hz a stack of 1 m boxes topples from about 20 (Box2D v3.1 does the same at its defaults);
-``contact_hertz: null`` makes contacts as stiff as the substeps allow, and 12 substeps then hold 40.
+``contact_hertz: null`` makes contacts as stiff as the substeps allow, and 24 substeps (180 Hz) then hold 40
+as well as the pyramid.
 """
 
 from __future__ import annotations
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import Field
 
 from stackx.kernel import kernel, prange
 from stackx.models.planar.monitor import observe
 from stackx.models.planar.state import PlanarState
 from stackx.registry import solvers
-from stackx.solvers.contacts import speculative_field
+from stackx.solvers.planar.base import PlanarMemorySolver
 from stackx.solvers.planar.contacts import (A, B, KN, KT, MU, NX, NY, PN, PT, apply_impulse, contact_workspace,
                                             find_contacts, gravity, integrate_positions, prepare, recall,
                                             relative_velocity, remember, warm_start)
-from stackx.solvers.planar.base import PlanarMemorySolver
-from stackx.solvers.planar.substep import base_separations, moved, separation, step_start
-from stackx.solvers.soft_step import STATIC_HERTZ, SUBSTEP_HERTZ, soft
+from stackx.solvers.planar.substep import base_separations, manifold_end, moved, separation, step_start
+from stackx.solvers.soft_step import STATIC_HERTZ, SoftStepParams, soft
 
 
-class PlanarSoftStepParams(BaseModel):
-    model_config = ConfigDict(extra="forbid")
-    substeps: int = Field(4, gt=0, le=10_000,
-                          description="substeps per step, each one solve and one relax pass: more make contacts "
-                                      "stiffer (the hertz cap rises) and piles quieter, at linear cost")
+SUBSTEP_HERTZ = 0.125  # the contact frequency is at most this share of the substep rate (Box2D v3.1.1 on)
+
+
+class PlanarSoftStepParams(SoftStepParams):
+    """The column's soft step knobs (substeps, damping ratio, push-out, relax, speculative, Box2D v3's
+    defaults), a contact hertz that may follow the substeps, and warm starting."""
+
     contact_hertz: float | None = Field(30.0, gt=0, allow_inf_nan=False,
                                         description="stiffness of a contact as a spring frequency (Hz), capped "
-                                                    "at a quarter of the substep rate; contacts with a static "
+                                                    "at an eighth of the substep rate; contacts with a static "
                                                     "side use twice it: higher sinks less under load and keeps "
                                                     "a tall stack from leaning over, but needs more substeps; "
                                                     "null: the cap, so stiffness grows with the substeps")
-    damping_ratio: float = Field(10.0, ge=0, allow_inf_nan=False,
-                                 description="damping of the contact spring: high values (10) push out without "
-                                             "bouncing, low ones spring back")
-    push_out: float = Field(3.0, gt=0, allow_inf_nan=False,
-                            description="largest separating speed the spring may ask for (m/s): keeps a deep "
-                                        "overlap from launching boxes, at the cost of a slower recovery")
-    relax: bool = Field(True, description="after positions move, solve once more without bias so the push-out "
-                                          "speed leaves the boxes; off keeps it (boxes bounce off overlap)")
     warm_start: bool = Field(True, description="start each step from the impulses the same points carried at "
                                                "the end of the last one: off rebuilds every load from zero, and "
                                                "a tall stack sinks and sways")
-    speculative: float = speculative_field(0.02)
-
-
-@kernel
-def manifold_end(ids: np.ndarray, start: int, count: int) -> int:
-    """One past the last point of the manifold (the same two bodies) that begins at ``start``."""
-    end = start + 1
-    while end < count and ids[end, A] == ids[start, A] and ids[end, B] == ids[start, B]:
-        end += 1
-    return end
 
 
 @kernel

@@ -33,31 +33,24 @@ at linear cost.
 from __future__ import annotations
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field
 
 from stackx.kernel import kernel, prange
 from stackx.models.planar.monitor import contact_room, observe
 from stackx.models.planar.state import PlanarState
 from stackx.registry import solvers
 from stackx.solvers.contacts import speculative_field
+from stackx.solvers.planar.base import PlanarSolver
 from stackx.solvers.planar.contacts import (A, B, MU, NX, NY, PN, PT, RAX, RAY, RBX, RBY, apply_impulse,
                                             contact_workspace, effective_mass, find_contacts, gravity,
                                             integrate_positions, prepare, relative_velocity)
-from stackx.solvers.planar.base import PlanarSolver
-from stackx.solvers.planar.soft_step import manifold_end
-from stackx.solvers.planar.substep import anchor, base_separations, moved, moved_body, separation, step_start
+from stackx.solvers.planar.substep import (anchor, base_separations, manifold_end, moved, moved_body, separation,
+                                           step_start)
+from stackx.solvers.xpbd import XPBDParams
 
 
-class PlanarXPBDParams(BaseModel):
-    model_config = ConfigDict(extra="forbid")
-    substeps: int = Field(20, gt=0, le=100_000,
-                          description="substeps per step, one projection pass each: more make contacts firmer "
-                                      "and reach further down a stack per step, at linear cost (Macklin et "
-                                      "al. use tens per frame and give no single default; 20 is ours)")
-    compliance: float = Field(0.0, ge=0, allow_inf_nan=False,
-                              description="inverse stiffness of a contact (m/N): 0 is rigid; a positive value "
-                                          "lets a loaded contact sink in like a spring, independent of the "
-                                          "number of substeps")
+class PlanarXPBDParams(XPBDParams):
+    """The column's XPBD knobs (substeps, compliance) and how far apart contacts are followed."""
+
     speculative: float = speculative_field(
         0.05, " Here: points within this gap when the step begins are followed through its substeps; a box "
               "closing faster than this per step reaches its neighbour unseen and is pushed out a step late")
