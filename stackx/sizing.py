@@ -4,11 +4,8 @@ that sizes it, instead of after an hour or with the machine swapping."""
 
 from __future__ import annotations
 
-
 from stackx.errors import Fail
 from stackx.spec import Plan, RunSpec, record_steps
-
-BYTES_PER_BOX = 40  # one recorded state per box: y, v, inv_mass, half (float64) and touched, rounded up
 
 
 def memory_bytes(plan: Plan) -> int:
@@ -19,7 +16,7 @@ def memory_bytes(plan: Plan) -> int:
 
 def run_bytes(run: RunSpec, wanted: set[int]) -> int:
     """Bytes of one run's recorded states (``wanted`` the steps its readers ask for) and its working state."""
-    return (len(record_steps(run, wanted)) + 2) * run.scene.size() * BYTES_PER_BOX
+    return (len(record_steps(run, wanted)) + 2) * run.scene.size() * run.model.bytes_per_body
 
 
 def work(plan: Plan) -> int:

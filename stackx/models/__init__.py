@@ -65,6 +65,7 @@ class Model:
     step_cost: ClassVar[float] = 1.0  # plain-Python time of one body-step, in column box-steps: whether
     # compiling a batch pays is decided on box-steps times this (``stackx.kernel.worth_compiling``)
     reference: ClassVar[str | None] = None  # the bench's reference solver on this model, if it has one
+    bytes_per_body: ClassVar[int] = 40  # memory of one recorded state per body, for limits.max_memory_mb
 
     @classmethod
     def concat(cls, states: list[Any]) -> Any:

@@ -251,9 +251,10 @@ def card_boxes(c: CardHouse) -> list[Body]:
     A card of length L and thickness t leaning by a from the vertical, its lower inner corner on the floor,
     has its centre (t/2) sin a + (L/2) cos a above the floor; its top inner corner is L cos a above the floor
     and its top outer corner, the highest point, L cos a + t sin a. The pair's two top inner corners meet on
-    the pair's centre line. A flat card lies across two neighbouring pairs, on the inner pair's top outer
-    corners (t cos a from the centre line), reaching half of t cos a past them, so that neighbouring flat
-    cards leave a gap of t cos a between them. The feet reach L sin a + t cos a from the centre line.
+    the pair's centre line. A flat card lies across two neighbouring pairs, on the top outer corners of the
+    two cards that face each other (each t cos a from its pair's centre line), reaching half of t cos a past
+    them, so that neighbouring flat cards leave a gap of t cos a. The feet reach L sin a + t cos a from the
+    centre line.
     """
     a = math.radians(c.angle)
     sa, ca = math.sin(a), math.cos(a)

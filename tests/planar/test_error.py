@@ -106,3 +106,42 @@ def test_the_lab_solver_error_falls_as_its_iterations_grow(pyramid_errors: dict[
     rms = [pyramid_errors[name]["rms"] for name in ("pgs1", "pgs4", "pgs32")]
     assert rms[0] > rms[1] > rms[2] > 0.0
     assert all(pyramid_errors[name]["unsolved"] == 0 for name in ("pgs1", "pgs4", "pgs32"))
+
+
+@pytest.fixture(scope="module")
+def landing_errors(tmp_path_factory: pytest.TempPathFactory) -> dict[str, list[dict]]:
+    """A heavy box landing tilted on a 3-row pyramid, every iterative planar solver at a low and a high
+    value of its cost knob, measured by the planar step log."""
+    path = tmp_path_factory.mktemp("planar-knobs") / "landing.yaml"
+    path.write_text("""
+scene:
+  name: planar
+  pyramid: {rows: 3, gap: 0.02, friction: 0.5}
+  boxes: [{x: 0.2, y: 3.8, angle: 10, mass: 2.0}]
+solver: {name: planar-pgs}
+dt: 1/60
+steps: 20
+""")
+    spec = load(str(path))
+    base = spec.runs[0]
+    out = {}
+    for name, knob in KNOBS:
+        cls = solvers.get(name)
+        spec.runs = [replace(base, name=f"{name}/{v}", solver_cls=cls, solver_params=cls.Params(**{knob: v}))
+                     for v in (2, 32)]
+        log = StepLog(Criteria())
+        run_experiment(spec, None, log)
+        out[name] = [row.error() for row in log.rows.values()]
+    return out
+
+
+KNOBS = [("planar-pgs", "iterations"), ("planar-warm-start", "iterations"), ("planar-ngs", "iterations"),
+         ("planar-soft-step", "substeps"), ("planar-xpbd", "substeps")]
+
+
+@pytest.mark.parametrize("solver", [name for name, _ in KNOBS])
+def test_every_iterative_solver_comes_closer_to_the_reference_as_its_knob_grows(
+        landing_errors: dict[str, list[dict]], solver: str) -> None:
+    low, high = landing_errors[solver]
+    assert low["rms"] > high["rms"] > 0.0
+    assert low["steps"] + low["unsolved"] == 20 and high["steps"] + high["unsolved"] == 20

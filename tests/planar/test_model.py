@@ -88,3 +88,15 @@ def test_a_planar_run_writes_its_measures_the_same_plain_and_compiled(cli: Cli, 
     assert run["y"][2] == pytest.approx(2.5 + 3 * 0.002, abs=3 * 0.02)
     assert max(abs(a) for a in run["angle"]) < 0.05 and run["max_depth"] < 0.02  # none toppled
     assert math.isfinite(run["rms_motion"])
+
+
+def test_a_planar_scene_starting_faster_than_max_speed_is_refused_at_load(tmp_path: Path) -> None:
+    config = tmp_path / "fast.yaml"
+    config.write_text(CONFIG.replace("stack: {count: 3, offset: 0.1, seed: 5, gap: 0.002}",
+                                     "boxes: [{y: 3.0, vx: 30.0, vy: 40.0, w: 4.0}]")
+                      + "limits: {max_speed: 52}\n")
+    with pytest.raises(ConfigError) as caught:
+        api.load(config)  # 50 m/s at the centre, 4 rad/s x 0.707 m at the corners: 52.83 m/s
+    assert f"run 'main' starts with a box at {50 + 4 * math.sqrt(0.5):g} m/s, over limits.max_speed = 52" in str(caught.value)
+    config.write_text(config.read_text().replace("max_speed: 52", "max_speed: 53"))
+    api.load(config)

@@ -25,6 +25,7 @@ class Column(Model):
     VECTORS = measures.VECTORS
     window = measures.MOTION_WINDOW
     reference = "exact"
+    bytes_per_body = 40  # a recorded state per box: y, v, inv_mass, half (float64) and touched, rounded up
 
     @classmethod
     def measure(cls, frames: Mapping[int, Any], steps: int, dt: Any) -> list[Measures]:

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from stackx.kernel import kernel
+from stackx.kernel import compiled, enabled, kernel
 from stackx.models.planar.monitor import contact_room
 from stackx.models.planar.problem import ContactProblem
 from stackx.models.planar.reference import Solution, solve
@@ -89,6 +89,13 @@ class ReferenceStep:
               friction: np.ndarray, g: float, dt: float, speculative: float) -> Solution:
         """Row ``b``'s step from its state before the step (arrays of the row, left untouched) solved to the
         reference's tolerance: the velocities after it and the impulses (``ReferenceFailure`` if not)."""
+        with compiled(enabled()):  # compiled unless STACKX_JIT=0, however small the run it measures
+            return self._solve(b, x, y, angle, vx, vy, w, inv_mass, inv_inertia, hx, hy, friction, g, dt,
+                               speculative)
+
+    def _solve(self, b: int, x: np.ndarray, y: np.ndarray, angle: np.ndarray, vx: np.ndarray, vy: np.ndarray,
+               w: np.ndarray, inv_mass: np.ndarray, inv_inertia: np.ndarray, hx: np.ndarray, hy: np.ndarray,
+               friction: np.ndarray, g: float, dt: float, speculative: float) -> Solution:
         vy = vy.copy()
         self.ids, self.table, count = gather(x, y, angle, vy, inv_mass, inv_inertia, hx, hy, friction, g, dt,
                                              speculative, self.ids, self.table, self.keys[b], self.carried[b],

@@ -32,7 +32,7 @@ from stackx.registry import solvers
 from stackx.solvers.base import Correction, LabCorrection
 from stackx.solvers.contacts import speculative_field
 from stackx.solvers.planar.contacts import contact_workspace, correct_positions, find_contacts, integrate_positions
-from stackx.solvers.planar.pgs import PlanarSolver, sequential_only
+from stackx.solvers.planar.base import PlanarSolver, sequential_only
 
 
 class PlanarExactParams(BaseModel):
