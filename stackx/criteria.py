@@ -12,12 +12,21 @@ A solver passes a case when, at the case's end, it
   positions after every step (the ``launch`` monitor), whatever moved it: an impulse, a bias or a position
   correction that never touched a velocity.
 
+Planar scenes are judged by the same three, with the checks that can fail on them: a check is made only when
+its measure is there (the model measures it on this scene) and the model does not leave it out
+(``Model.unjudged``). "Holds" adds **drift**: the boxes placed where they should stay (``drift_x``, the largest
+horizontal motion, at most ``drift``; ``drift_angle``, the largest rotation, at most ``turn``) and, on a ramp,
+the box's acceleration down the slope within ``slide`` of the analytic g (sin a - mu cos a) (``slide_error``).
+The top box's rest height is judged where a rigid pile gives it one (a stack, a pyramid, heavy on light), over
+the contacts under it (``rest_contacts``; on the column every box's). A sliding box never settles, so
+"settled" is not judged on it.
+
 The limits are a config's ``bench.criteria`` section; the defaults are the hard cases' definitions.
 """
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Collection, Mapping
 from dataclasses import dataclass
 from typing import Any
 
@@ -45,6 +54,15 @@ class Criteria(BaseModel):
                           description="'settled' needs the final RMS motion below this (m/s)")
     launch: float = Field(1.0, gt=0, allow_inf_nan=False,
                           description="'never launched' allows upward velocities up to this after touching (m/s)")
+    drift: float = Field(0.05, gt=0, allow_inf_nan=False,
+                         description="(planar) 'holds' allows a box placed at rest to end this far sideways from "
+                                     "where it started (m)")
+    turn: float = Field(0.05, gt=0, allow_inf_nan=False,
+                        description="(planar) 'holds' allows a box placed at rest to end turned by this much (rad); "
+                                    "a toppled box has turned by about 1.57")
+    slide: float = Field(1e-3, gt=0, allow_inf_nan=False,
+                         description="(planar ramp) 'holds' allows the box's acceleration down the slope to differ "
+                                     "this much from g (sin a - mu cos a), or 0 where it should stick (m/s^2)")
 
     @property
     def depth_limit(self) -> float:
@@ -97,19 +115,27 @@ class Verdict:
                            for c in self.checks]}
 
 
-def judge(measures: Mapping[str, Any], criteria: Criteria) -> dict[str, Verdict]:
-    """The three verdicts of one run from its measures (``max_depth``, ``max_gap``, ``top_rest_error``,
-    ``boxes``, ``reach``, ``rms_motion``, ``launch``)."""
-    def check(measure: str, limit: float, strict: bool = False) -> Check:
-        return Check(measure, float(measures[measure]), limit, strict)
+def judge(measures: Mapping[str, Any], criteria: Criteria, unjudged: Collection[str] = ()) -> dict[str, Verdict]:
+    """The three verdicts of one run from its measures (the column's: ``max_depth``, ``max_gap``,
+    ``top_rest_error``, ``boxes``, ``reach``, ``rms_motion``, ``launch``; planar runs may lack some and add
+    ``drift_x``, ``drift_angle``, ``slide_error``, ``rest_contacts``). A check is made when its measure is
+    there and not in ``unjudged``; a verdict without checks has nothing that could fail it and passes."""
+    def check(measure: str, limit: float, strict: bool = False) -> list[Check]:
+        if measure not in measures or measure in unjudged:
+            return []
+        return [Check(measure, float(measures[measure]), limit, strict)]
 
-    rest = Check("|top_rest_error|", abs(float(measures["top_rest_error"])),
-                 criteria.rest_limit(int(measures["boxes"])))
+    rest = []
+    if "top_rest_error" in measures and "top_rest_error" not in unjudged:
+        contacts = int(measures.get("rest_contacts", measures["boxes"]))
+        rest = [Check("|top_rest_error|", abs(float(measures["top_rest_error"])), criteria.rest_limit(contacts))]
+    holds = (*check("max_depth", criteria.depth_limit), *check("max_gap", criteria.depth_limit), *rest,
+             *check("reach", criteria.reach), *check("drift_x", criteria.drift), *check("drift_angle", criteria.turn),
+             *check("slide_error", criteria.slide))
     return {
-        "holds": Verdict("holds", (check("max_depth", criteria.depth_limit), check("max_gap", criteria.depth_limit),
-                                   rest, check("reach", criteria.reach))),
-        "settled": Verdict("settled", (check("rms_motion", criteria.settle, strict=True),)),
-        "never_launched": Verdict("never_launched", (check("launch", criteria.launch),)),
+        "holds": Verdict("holds", holds),
+        "settled": Verdict("settled", tuple(check("rms_motion", criteria.settle, strict=True))),
+        "never_launched": Verdict("never_launched", tuple(check("launch", criteria.launch))),
     }
 
 

@@ -36,12 +36,13 @@ from stackx.errors import ConfigError
 T = TypeVar("T")
 
 BUILTIN_MODULES = {
-    "model": ["stackx.models.column.model"],
-    "scene": ["stackx.scenes.column"],
+    "model": ["stackx.models.column.model", "stackx.models.planar.model"],
+    "scene": ["stackx.scenes.column", "stackx.scenes.planar"],
     "solver": ["stackx.solvers.pgs", "stackx.solvers.warm_start", "stackx.solvers.exact",
                "stackx.solvers.baumgarte", "stackx.solvers.split_impulse",
                "stackx.solvers.ngs", "stackx.solvers.soft_step",
                "stackx.solvers.xpbd", "stackx.solvers.jacobi",
+               "stackx.solvers.planar.pgs",
                # engines: their packages are imported only when a run is set up (stackx.solvers.engines.engine)
                "stackx.solvers.engines.pymunk_engine", "stackx.solvers.engines.box2d_engine",
                "stackx.solvers.engines.box2d3_engine", "stackx.solvers.engines.mujoco_engine"],

@@ -100,7 +100,10 @@ def _records_html(res: CaseResult) -> str:
                                     "top_p2p", "launch", "steps_to_recover", "steps_to_settle")]
         for name in NAMES:
             v = r.criteria[name]
-            line.append(td("pass" if v["passed"] else f"fail: {v['failing']}", "pass" if v["passed"] else "fail"))
+            if v["passed"] and not v["checks"]:
+                line.append(td("not judged"))  # nothing on this scene could fail it (see criteria)
+            else:
+                line.append(td("pass" if v["passed"] else f"fail: {v['failing']}", "pass" if v["passed"] else "fail"))
         rows.append(line)
     note = per_call_note(res)
     return table(HEAD, rows) + (f"<p class=note>{esc(note)} (see one_step_per_call).</p>" if note else "")

@@ -88,7 +88,7 @@ def _measure(case: Case, plan: SolverPlan, variant: str, value: int, result: Run
         rec.crushed_at = log.crushed_at
         rec.error = log.error()
     rec.series = series if rec.crushed_at is None or series is None else series.until(rec.crushed_at)
-    verdicts = judge(rec.measures, case.section.criteria)
+    verdicts = judge(rec.measures, case.section.criteria, case.run.model.unjudged(case.run))
     rec.criteria = {name: v.as_dict() for name, v in verdicts.items()}
     rec.passed = passed(verdicts)
     return rec

@@ -29,7 +29,7 @@ def case_table(res: CaseResult) -> Table:
         row += [f[k] for k in ("max_depth", "max_gap", "top_rest_error", "rms_motion", "launch")]
         for name in NAMES:
             v = r.criteria[name]
-            row.append("[green]pass[/]" if v["passed"] else "[red]fail[/]")
+            row.append("-" if v["passed"] and not v["checks"] else "[green]pass[/]" if v["passed"] else "[red]fail[/]")
         table.add_row(*row)
     if per_call_note(res):
         table.caption, table.caption_justify = per_call_note(res), "left"

@@ -28,6 +28,7 @@ from pydantic import BaseModel, ConfigDict
 
 if TYPE_CHECKING:
     from stackx.results import RunResult
+    from stackx.spec import RunSpec
 
 Measures = dict[str, float | list[float]]
 Offender = tuple[int, int, str, str]  # (row, body, cause, detail) of the first bad body, bodies bottom-up
@@ -93,6 +94,12 @@ class Model:
         """Measures the bench's criteria need beyond the run's own (none unless the model says); with
         ``every_step`` the state before every step was recorded, and measures of the whole path may be added."""
         return {}
+
+    @classmethod
+    def unjudged(cls, run: RunSpec) -> tuple[str, ...]:
+        """Measures whose check cannot pass or fail on this run's scene (a box sliding down a ramp never
+        settles): the bench leaves them out of its verdicts. None by default."""
+        return ()
 
     @classmethod
     def step_log(cls, criteria: Any) -> Any:

@@ -1,0 +1,1 @@
+"""Solvers of the planar model (``models = ("planar",)``); ``contacts`` holds the stages they share."""

@@ -1,0 +1,292 @@
+"""The stages every planar solver is made of: contact points as per-point arrays, impulses, positions.
+
+A world's contact points live in a **contact table** made by ``contact_workspace``: ``ids`` ``(room, 3)``
+int64 with columns ``A``, ``B`` (the two bodies; ``A`` is -1 for the ground) and ``FEATURE`` (which corners
+and faces touch, from ``collide``), and ``table`` ``(room, COLUMNS)`` float64 with one named column per
+quantity. An impulse ``pn * n + pt * t`` acts on body ``B`` at the point and its opposite on ``A``; the tangent
+is ``t = (-ny, nx)`` and the relative velocity at a point is ``(v_B + w_B x r_B) - (v_A + w_A x r_A)``, as in
+the reference solver's contact problem. The ground is infinitely heavy and never moves.
+
+Functions, in the order a step uses them:
+
+- ``contact_workspace(room)``: an empty table with room for ``room`` points;
+- ``gravity(vy, inv_mass, g, dt)``: ``vy += g * dt`` for every movable body;
+- ``find_contacts(...)``: fill the table from ``collide`` (points within ``margin`` of touching), growing it
+  when the world has more points than room; returns the (maybe new) table and the count;
+- ``prepare(...)``: per point the anchors ``r_A``, ``r_B`` (the point minus each centre), the effective normal
+  and tangent masses ``k = 1 / (m_A^-1 + m_B^-1 + I_A^-1 (r_A x d)^2 + I_B^-1 (r_B x d)^2)`` for ``d = n, t``
+  and the point's friction (``sqrt(mu_A mu_B)``; against the ground the box's own ``mu``);
+- ``anchor_locals(...)``: each point's face plane and touching corner in the frames of the bodies that carry
+  them, so a position stage can measure the separation again after the bodies moved and turned (NGS);
+- ``relative_velocity(...)``: the relative velocity of a point along a direction;
+- ``apply_impulse(...)``: an impulse at a point to both bodies' linear and angular velocities;
+- ``set_targets(...)``: the slowest normal velocity each point accepts: ``depth/dt`` (negative) for a point
+  still apart, so it may close its gap within the step but not more, and 0 for one touching;
+- ``recall(...)`` / ``remember(...)``: warm start: the impulses of the last step's points found again by
+  ``(A, B, FEATURE)``, and the impulses of this step kept for the next;
+- ``warm_start(...)``: apply the carried impulses before the first iteration;
+- ``accumulated_iteration(...)``: one Gauss-Seidel pass with accumulated clamping, friction then normal per
+  point: the friction total stays in ``[-mu pn, mu pn]`` of the current normal total, the normal total >= 0;
+- ``integrate_positions(...)``: positions and angles move with the velocities over ``dt``;
+- ``correct_positions(...)``: the lab's position correction carried over: each overlapping point, in table
+  order, pushes its bodies apart along its normal by ``percent * max(depth - slop, 0)``, shared by inverse
+  masses, translation only, each depth measured after the pushes before it.
+
+Translation only: the lab's correction moves boxes, it does not turn them; a push at the centre keeps the
+correction from ever adding a spin the velocity solve did not ask for (a stage that turns boxes by the lever
+arm of the point is NGS, ``stackx.solvers.planar.ngs``).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from stackx.correct import correct
+from stackx.kernel import kernel
+from stackx.models.planar.collide import collide
+
+# ids columns
+A, B, FEATURE = 0, 1, 2
+# table columns: normal, point, depth (from collide); anchors, masses, friction, target, impulses (prepare
+# and the solve); the face normal and point in the reference body's frame and the touching corner in the
+# incident body's frame (anchor_locals)
+NX, NY, PX, PY, DEPTH, RAX, RAY, RBX, RBY, KN, KT, MU, TARGET, PN, PT = range(15)
+LNX, LNY, LFX, LFY, LQX, LQY = range(15, 21)
+COLUMNS = 21
+FLIPPED = 64  # collide's features from 64 up: the reference face is on body B
+
+
+@kernel
+def contact_workspace(room: int) -> tuple[np.ndarray, np.ndarray]:
+    """An empty contact table for ``room`` points: ``(ids, table)``."""
+    return np.zeros((room, 3), np.int64), np.zeros((room, COLUMNS))
+
+
+@kernel
+def gravity(vy: np.ndarray, inv_mass: np.ndarray, g: float, dt: float) -> None:
+    """``vy += g * dt`` for every movable body (static boxes stay still)."""
+    for i in range(vy.shape[0]):
+        if inv_mass[i] > 0.0:
+            vy[i] += g * dt
+
+
+@kernel
+def find_contacts(x: np.ndarray, y: np.ndarray, angle: np.ndarray, hx: np.ndarray, hy: np.ndarray,
+                  inv_mass: np.ndarray, margin: float, ids: np.ndarray,
+                  table: np.ndarray) -> tuple[np.ndarray, np.ndarray, int]:
+    """The world's contact points within ``margin`` of touching: ``(ids, table, count)``; the table is
+    replaced by a larger one when the points do not fit."""
+    static = inv_mass == 0.0
+    while True:
+        count = collide(x, y, angle, hx, hy, static, margin, ids[:, A], ids[:, B], table[:, NX:NY + 1],
+                        table[:, PX:PY + 1], table[:, DEPTH], ids[:, FEATURE])
+        if count <= ids.shape[0]:
+            return ids, table, count
+        ids, table = contact_workspace(count)
+
+
+@kernel
+def effective_mass(ima: float, iia: float, rax: float, ray: float, imb: float, iib: float, rbx: float,
+                   rby: float, dx: float, dy: float) -> float:
+    """``1 / (d . K d)`` of a point along the unit direction ``d``; 0 when nothing can move."""
+    ca = rax * dy - ray * dx
+    cb = rbx * dy - rby * dx
+    total = ima + imb + iia * ca * ca + iib * cb * cb
+    return 1.0 / total if total > 0.0 else 0.0
+
+
+@kernel
+def prepare(x: np.ndarray, y: np.ndarray, inv_mass: np.ndarray, inv_inertia: np.ndarray, friction: np.ndarray,
+            ids: np.ndarray, table: np.ndarray, count: int) -> None:
+    """Anchors, effective normal and tangent masses and friction of every point; impulses set to 0."""
+    for k in range(count):
+        a, b = ids[k, A], ids[k, B]
+        nx, ny = table[k, NX], table[k, NY]
+        px, py = table[k, PX], table[k, PY]
+        rbx, rby = px - x[b], py - y[b]
+        if a >= 0:
+            rax, ray = px - x[a], py - y[a]
+            ima, iia, mu = inv_mass[a], inv_inertia[a], np.sqrt(friction[a] * friction[b])
+        else:
+            rax, ray, ima, iia, mu = 0.0, 0.0, 0.0, 0.0, friction[b]
+        imb, iib = inv_mass[b], inv_inertia[b]
+        table[k, RAX], table[k, RAY], table[k, RBX], table[k, RBY] = rax, ray, rbx, rby
+        table[k, KN] = effective_mass(ima, iia, rax, ray, imb, iib, rbx, rby, nx, ny)
+        table[k, KT] = effective_mass(ima, iia, rax, ray, imb, iib, rbx, rby, -ny, nx)
+        table[k, MU] = mu
+        table[k, TARGET] = 0.0
+        table[k, PN] = 0.0
+        table[k, PT] = 0.0
+
+
+@kernel
+def anchor_locals(x: np.ndarray, y: np.ndarray, angle: np.ndarray, ids: np.ndarray, table: np.ndarray,
+                  count: int) -> None:
+    """Each point's reference face (normal and a point of its plane) in the frame of the body that owns the
+    face, and the touching corner in the frame of the other (the incident body); the ground's frame is the
+    world's. The corner sits ``depth/2`` behind the point along the face normal, the plane ``depth/2`` ahead."""
+    for k in range(count):
+        a, b, feature = ids[k, A], ids[k, B], ids[k, FEATURE]
+        nx, ny, d = table[k, NX], table[k, NY], table[k, DEPTH]
+        qax, qay = table[k, PX] + 0.5 * d * nx, table[k, PY] + 0.5 * d * ny  # on A's surface
+        qbx, qby = table[k, PX] - 0.5 * d * nx, table[k, PY] - 0.5 * d * ny  # on B's surface
+        if a >= 0 and feature >= FLIPPED:  # B owns the face, whose normal points from B to A
+            r, i, fnx, fny, fx, fy, qx, qy = b, a, -nx, -ny, qbx, qby, qax, qay
+        else:
+            r, i, fnx, fny, fx, fy, qx, qy = a, b, nx, ny, qax, qay, qbx, qby
+        if r >= 0:
+            c, s = np.cos(angle[r]), np.sin(angle[r])
+            fx, fy = fx - x[r], fy - y[r]
+            fnx, fny, fx, fy = c * fnx + s * fny, -s * fnx + c * fny, c * fx + s * fy, -s * fx + c * fy
+        c, s = np.cos(angle[i]), np.sin(angle[i])
+        qx, qy = qx - x[i], qy - y[i]
+        table[k, LNX], table[k, LNY] = fnx, fny
+        table[k, LFX], table[k, LFY] = fx, fy
+        table[k, LQX], table[k, LQY] = c * qx + s * qy, -s * qx + c * qy
+
+
+@kernel
+def relative_velocity(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, ids: np.ndarray, table: np.ndarray, k: int,
+                      dx: float, dy: float) -> float:
+    """``((v_B + w_B x r_B) - (v_A + w_A x r_A)) . d`` at point ``k`` (m/s)."""
+    b = ids[k, B]
+    ux = vx[b] - w[b] * table[k, RBY]
+    uy = vy[b] + w[b] * table[k, RBX]
+    a = ids[k, A]
+    if a >= 0:
+        ux -= vx[a] - w[a] * table[k, RAY]
+        uy -= vy[a] + w[a] * table[k, RAX]
+    return ux * dx + uy * dy
+
+
+@kernel
+def apply_impulse(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, inv_mass: np.ndarray, inv_inertia: np.ndarray,
+                  ids: np.ndarray, table: np.ndarray, k: int, px: float, py: float) -> None:
+    """The impulse ``(px, py)`` at point ``k`` on body B, and its opposite on body A."""
+    b = ids[k, B]
+    vx[b] += inv_mass[b] * px
+    vy[b] += inv_mass[b] * py
+    w[b] += inv_inertia[b] * (table[k, RBX] * py - table[k, RBY] * px)
+    a = ids[k, A]
+    if a >= 0:
+        vx[a] -= inv_mass[a] * px
+        vy[a] -= inv_mass[a] * py
+        w[a] -= inv_inertia[a] * (table[k, RAX] * py - table[k, RAY] * px)
+
+
+@kernel
+def set_targets(table: np.ndarray, count: int, dt: float) -> None:
+    """The slowest normal velocity each point accepts: ``depth/dt`` for a point still apart (a speculative
+    point may close its gap within the step, no more), 0 for a touching one (no approach)."""
+    for k in range(count):
+        d = table[k, DEPTH]
+        table[k, TARGET] = d / dt if d < 0.0 else 0.0
+
+
+@kernel
+def recall(ids: np.ndarray, table: np.ndarray, count: int, keys: np.ndarray, carried: np.ndarray,
+           held: int) -> None:
+    """Warm start values: each point's impulses from the last step's point with the same ``(A, B, FEATURE)``,
+    0 for a new point. ``collide`` lists points by ``(A, B)`` in increasing order (the ground's first), and so
+    does the memory, so one walk down both lists finds every match."""
+    j = 0
+    for k in range(count):
+        a, b, f = ids[k, A], ids[k, B], ids[k, FEATURE]
+        while j < held and (keys[j, 0] < a or (keys[j, 0] == a and keys[j, 1] < b)):
+            j += 1
+        i = j
+        while i < held and keys[i, 0] == a and keys[i, 1] == b:
+            if keys[i, 2] == f:
+                table[k, PN], table[k, PT] = carried[i, 0], carried[i, 1]
+                break
+            i += 1
+
+
+@kernel
+def remember(ids: np.ndarray, table: np.ndarray, count: int, keys: np.ndarray, carried: np.ndarray) -> int:
+    """Keep this step's points and impulses for the next (as many as the memory holds); returns how many."""
+    held = min(count, keys.shape[0])
+    for k in range(held):
+        keys[k, 0], keys[k, 1], keys[k, 2] = ids[k, A], ids[k, B], ids[k, FEATURE]
+        carried[k, 0], carried[k, 1] = table[k, PN], table[k, PT]
+    return held
+
+
+@kernel
+def warm_start(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, inv_mass: np.ndarray, inv_inertia: np.ndarray,
+               ids: np.ndarray, table: np.ndarray, count: int) -> None:
+    """Apply every point's carried impulses (``PN``, ``PT``) to the velocities."""
+    for k in range(count):
+        pn, pt = table[k, PN], table[k, PT]
+        if pn != 0.0 or pt != 0.0:
+            nx, ny = table[k, NX], table[k, NY]
+            apply_impulse(vx, vy, w, inv_mass, inv_inertia, ids, table, k, pn * nx - pt * ny, pn * ny + pt * nx)
+
+
+@kernel
+def accumulated_iteration(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, inv_mass: np.ndarray,
+                          inv_inertia: np.ndarray, ids: np.ndarray, table: np.ndarray, count: int) -> None:
+    """One Gauss-Seidel pass over the points in table order with accumulated clamping.
+
+    Per point, friction first (bounded by the normal total so far, so a point never holds more sideways than
+    it is pressed), then the normal: a visit's increment may be negative (an earlier visit pushed too hard),
+    only the totals are clamped: ``PN >= 0`` and ``|PT| <= mu PN``.
+    """
+    for k in range(count):
+        nx, ny = table[k, NX], table[k, NY]
+        limit = table[k, MU] * table[k, PN]
+        old = table[k, PT]
+        total = old - table[k, KT] * relative_velocity(vx, vy, w, ids, table, k, -ny, nx)
+        total = min(max(total, -limit), limit)
+        step = total - old
+        if step != 0.0:
+            apply_impulse(vx, vy, w, inv_mass, inv_inertia, ids, table, k, -step * ny, step * nx)
+            table[k, PT] = total
+        old = table[k, PN]
+        total = max(old + table[k, KN] * (table[k, TARGET] - relative_velocity(vx, vy, w, ids, table, k, nx, ny)),
+                    0.0)
+        step = total - old
+        if step != 0.0:
+            apply_impulse(vx, vy, w, inv_mass, inv_inertia, ids, table, k, step * nx, step * ny)
+            table[k, PN] = total
+
+
+@kernel
+def integrate_positions(x: np.ndarray, y: np.ndarray, angle: np.ndarray, vx: np.ndarray, vy: np.ndarray,
+                        w: np.ndarray, dt: float) -> None:
+    """Move every body with its velocities over ``dt`` (static bodies have none)."""
+    for i in range(x.shape[0]):
+        x[i] += vx[i] * dt
+        y[i] += vy[i] * dt
+        angle[i] += w[i] * dt
+
+
+@kernel
+def correct_positions(x: np.ndarray, y: np.ndarray, inv_mass: np.ndarray, ids: np.ndarray, table: np.ndarray,
+                      count: int, slop: float, percent: float, shift: np.ndarray) -> None:
+    """The lab's correction on the points of the table (found after the positions moved), in table order.
+
+    Each point's depth is the table's less what the pushes before it have already opened along its normal
+    (``shift``, ``(bodies, 2)`` scratch: how far each body was pushed in this stage), which is exact for pushes
+    that only translate. ``correct`` gives the two moves (split by inverse mass; none within slop).
+    """
+    shift[:, :] = 0.0
+    for k in range(count):
+        a, b = ids[k, A], ids[k, B]
+        nx, ny = table[k, NX], table[k, NY]
+        opened = shift[b, 0] * nx + shift[b, 1] * ny
+        ima = 0.0
+        if a >= 0:
+            opened -= shift[a, 0] * nx + shift[a, 1] * ny
+            ima = inv_mass[a]
+        down, up = correct(table[k, DEPTH] - opened, slop, percent, ima, inv_mass[b])
+        if down != 0.0:
+            x[a] -= down * nx
+            y[a] -= down * ny
+            shift[a, 0] -= down * nx
+            shift[a, 1] -= down * ny
+        if up != 0.0:
+            x[b] += up * nx
+            y[b] += up * ny
+            shift[b, 0] += up * nx
+            shift[b, 1] += up * ny

@@ -1,0 +1,136 @@
+"""The lab's rules carried over to planar boxes: sequential impulses with no memory, then correction.
+
+One step of one world, in the lab's order:
+1. gravity: ``vy += g*dt`` for every movable box;
+2. contacts: the points that overlap now (depth > 0), with anchors and effective masses (``contacts``);
+3. ``iterations`` velocity passes, each visiting the points in table order (ground points first, then pairs
+   by index), every point seeing the velocities the earlier visits left (Gauss-Seidel). A visit stops the
+   point's approach along the normal (restitution 0) with an impulse clamped at 0 on its own, then applies
+   friction clamped by that same visit's normal impulse: the lab has no accumulated impulse, so a visit that
+   finds the point already separating (no normal impulse) holds nothing sideways either;
+4. positions and angles move with the velocities;
+5. the lab's position correction (slop, percent) on the points that overlap after the move, translation
+   only, each depth measured after the pushes before it; it moves positions only.
+
+Nothing is kept between steps, so as on the column every step's iterations rebuild the loads from zero: a
+tall stack needs about one pass per box to be held, and friction, bounded by visits that mostly find the
+point at rest, is weak where a load must be carried sideways.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field, field_validator
+
+from stackx.kernel import kernel, prange
+from stackx.models.planar.monitor import contact_room, observe
+from stackx.models.planar.state import PlanarState
+from stackx.registry import solvers
+from stackx.solvers.base import Correction, LabCorrection, Solver
+from stackx.solvers.planar.contacts import (DEPTH, KN, KT, MU, NX, NY, PN, PT, apply_impulse, contact_workspace,
+                                            correct_positions, find_contacts, gravity, integrate_positions,
+                                            prepare, relative_velocity)
+
+
+def sequential_only(correction: Correction | None) -> Correction | None:
+    """Refuse the column's ``global`` stage and ``max_push``: only the lab's sequential stage is carried over
+    to planar boxes, and a knob that would be ignored is an error rather than a silent no-op."""
+    if correction is not None and (correction.stage != "sequential" or correction.max_push is not None):
+        raise ValueError("the planar model has only the sequential stage: leave 'stage' at 'sequential' and "
+                         "'max_push' unset")
+    return correction
+
+
+class PlanarPGSParams(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+    iterations: int = Field(10, gt=0, le=100_000,
+                            description="velocity passes per step: more makes a pile more solid and costs "
+                                        "linearly more")
+    correction: LabCorrection = Field(
+        default_factory=Correction,
+        description="the lab's position correction (slop, percent; translation along each point's normal); "
+                    "'off' (or null) leaves overlap to sink in. Only the sequential stage exists here: "
+                    "'global' and max_push are the column's")
+
+    _sequential = field_validator("correction")(sequential_only)
+
+
+@kernel
+def lab_pass(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, inv_mass: np.ndarray, inv_inertia: np.ndarray,
+             ids: np.ndarray, table: np.ndarray, count: int) -> None:
+    """One pass of per-visit clamped impulses over the overlapping points: stop the approach, then friction
+    within ``mu`` times this visit's normal impulse. ``PN``/``PT`` add up what the visits gave (a record)."""
+    for k in range(count):
+        if table[k, DEPTH] <= 0.0:
+            continue
+        nx, ny = table[k, NX], table[k, NY]
+        un = relative_velocity(vx, vy, w, ids, table, k, nx, ny)
+        pn = 0.0
+        if un < 0.0:
+            pn = -un * table[k, KN]
+            apply_impulse(vx, vy, w, inv_mass, inv_inertia, ids, table, k, pn * nx, pn * ny)
+            table[k, PN] += pn
+        limit = table[k, MU] * pn
+        if limit > 0.0:
+            pt = -relative_velocity(vx, vy, w, ids, table, k, -ny, nx) * table[k, KT]
+            pt = min(max(pt, -limit), limit)
+            apply_impulse(vx, vy, w, inv_mass, inv_inertia, ids, table, k, -pt * ny, pt * nx)
+            table[k, PT] += pt
+
+
+@kernel
+def planar_pgs_advance(x: np.ndarray, y: np.ndarray, angle: np.ndarray, vx: np.ndarray, vy: np.ndarray,
+                       w: np.ndarray, inv_mass: np.ndarray, inv_inertia: np.ndarray, hx: np.ndarray,
+                       hy: np.ndarray, friction: np.ndarray, g: np.ndarray, dt: np.ndarray, iterations: np.ndarray,
+                       corrects: np.ndarray, slop: np.ndarray, percent: np.ndarray, last: np.ndarray,
+                       peak: np.ndarray, reach: np.ndarray, touched: np.ndarray, launch: np.ndarray,
+                       steps: int) -> None:
+    """``steps`` lab steps of every batch row, in place."""
+    for b in prange(x.shape[0]):
+        xb, yb, ab, vxb, vyb, wb = x[b], y[b], angle[b], vx[b], vy[b], w[b]  # the row's views, made once
+        im, ii, hxb, hyb, mub = inv_mass[b], inv_inertia[b], hx[b], hy[b], friction[b]
+        ids, table = contact_workspace(contact_room(x.shape[1]))
+        shift = np.zeros((x.shape[1], 2))
+        for _ in range(steps):
+            gravity(vyb, im, g[b], dt[b])
+            ids, table, count = find_contacts(xb, yb, ab, hxb, hyb, im, 0.0, ids, table)
+            prepare(xb, yb, im, ii, mub, ids, table, count)
+            for _ in range(iterations[b]):
+                lab_pass(vxb, vyb, wb, im, ii, ids, table, count)
+            integrate_positions(xb, yb, ab, vxb, vyb, wb, dt[b])
+            if corrects[b]:
+                ids, table, count = find_contacts(xb, yb, ab, hxb, hyb, im, 0.0, ids, table)
+                correct_positions(xb, yb, im, ids, table, count, slop[b], percent[b], shift)
+            observe(xb, yb, ab, hxb, hyb, im, dt[b], last, peak, reach, touched, launch, b)
+
+
+class PlanarSolver(Solver):
+    """Base of the planar solvers: they step ``PlanarState``s."""
+
+    models = ("planar",)
+
+    def lab_correction(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Per batch row: whether the lab's correction runs, its slop and percent."""
+        on, slop, percent, _, _ = self.corrections()
+        return on, slop, percent
+
+
+@solvers.register("planar-pgs")
+class PlanarPGS(PlanarSolver):
+    """The lab's projected Gauss-Seidel on planar boxes: ``iterations`` trade CPU for how solid a pile is."""
+
+    Params = PlanarPGSParams
+
+    def __init__(self, params: list[PlanarPGSParams], gravity: np.ndarray, dt: np.ndarray) -> None:
+        super().__init__(params, gravity, dt)
+        self.iterations = self.counts("iterations")
+        self.corrects, self.slop, self.percent = self.lab_correction()
+
+    def advance(self, state: PlanarState, steps: int) -> None:
+        s = state
+        planar_pgs_advance(s.x, s.y, s.angle, s.vx, s.vy, s.w, s.inv_mass, s.inv_inertia, s.hx, s.hy, s.friction,
+                           self.gravity, self.dt, self.iterations, self.corrects, self.slop, self.percent,
+                           *s.monitors(), steps)
+
+    def remove_box(self, state: PlanarState, box: int) -> None:
+        """Nothing to forget: the lab solver keeps no memory between steps."""
