@@ -16,6 +16,7 @@ from stackx.bench.compare import Cell, case_records, failing, label, matrix, out
 from stackx.bench.markup import esc, number, swatch, table, td
 from stackx.bench.result import DEFINITIONS, CaseResult, per_call_note, shown, step_time
 from stackx.bench.summary import summary_html
+from stackx.bench.sweep import Record
 from stackx.criteria import NAMES
 
 CSS = """
@@ -150,10 +151,16 @@ def _trajectories_note(res: CaseResult) -> str:
     missing = [f"{label(r.solver, r.knob, r.value)} ({failing(r)})" for r in runs if r.series is None]
     text = ("Each solver at the knob value the summary shows: its smallest that passed (solid line), else its "
             "largest tried (dashed): the setting that answers the case, or the most effort a failing solver was "
-            "given, to see how it fails. Dotted: the rigid rest height and the depth limit.")
+            "given, to see how it fails. Dotted: the rigid rest height and the depth limit"
+            + (", and below, the drift and turn limits of the boxes placed at rest." if _drifts(runs) else "."))
     if missing:
         text += " Not drawn: " + "; ".join(missing) + "."
     return f"<p class=note>{esc(text)}</p>"
+
+
+def _drifts(runs: list[Record]) -> bool:
+    """Whether the runs' series have drift (a planar scene with boxes placed at rest): the plot has its panels."""
+    return any(r.series is not None and r.series.drift_x is not None for r in runs)
 
 
 def _case_html(res: CaseResult, pictures: dict[str, str]) -> str:
@@ -187,7 +194,8 @@ def _case_html(res: CaseResult, pictures: dict[str, str]) -> str:
         parts.append(f"<p><b>Lab claim.</b> {esc(res.claim['text'])}</p>")
     parts.append("<h3>Against time</h3>")
     if "time" in pictures:
-        parts.append(f'<p><img src="{pictures["time"]}" alt="top box height and largest depth against time, '
+        drift = ", drift and turn" if _drifts(outcomes(res.records)) else ""
+        parts.append(f'<p><img src="{pictures["time"]}" alt="top box height, largest depth{drift} against time, '
                      f'{esc(res.name)}"></p>' + _trajectories_note(res))
     else:
         parts.append("<p class=note>No picture: no run has a series to draw (every run blew up).</p>")

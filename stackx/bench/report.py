@@ -102,7 +102,8 @@ def pictures(res: CaseResult) -> dict[str, str]:
     there is something to draw."""
     out = {}
     crit = res.case.section.criteria
-    time_png = trajectories_png(res.name, outcomes(res.records), crit.depth_limit, rest_height(res.records))
+    time_png = trajectories_png(res.name, outcomes(res.records), crit.depth_limit, rest_height(res.records),
+                                (crit.drift, crit.turn))
     if time_png is not None:
         out["time"] = png_uri(time_png)
     speed_png = speed_error_png(res.name, res.records)

@@ -127,7 +127,7 @@ def run_plan(case: Case, plan: SolverPlan, progress: Progress | None = None) -> 
         return {r.name: r for r in run_experiment(experiment, report, log, record).runs}
 
     log = case.run.model.step_log(case.section.criteria)
-    watched = SeriesLog(log) if log is not None else None  # a model without a step log is not stepped one by one
+    watched = SeriesLog(log)  # the step log, if the model has one, and the series against time
     try:
         results = run([r for _, _, r in runs], watched, progress)
     except RunError:
@@ -141,8 +141,8 @@ def run_plan(case: Case, plan: SolverPlan, progress: Progress | None = None) -> 
             except RunError as exc:
                 out.append(_blown(case, plan, variant, value, str(exc)))
                 continue
-        rows = (log.rows[spec.name], watched.series(spec.name)) if watched is not None else (None, None)
-        out.append(_measure(case, plan, variant, value, result, *rows))
+        row_log = log.rows[spec.name] if log is not None else None
+        out.append(_measure(case, plan, variant, value, result, row_log, watched.series(spec.name)))
     return out
 
 

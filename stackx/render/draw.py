@@ -13,9 +13,12 @@ from __future__ import annotations
 from collections.abc import Sequence
 from typing import Any
 
+import numpy as np
+
 from stackx.gfxlib import Canvas
 from stackx.models.column.state import ColumnState
-from stackx.models.planar.figures import deepest, highest
+from stackx.models.planar.figures import top_height
+from stackx.models.planar.measures import max_depth
 from stackx.models.planar.state import PlanarState
 from stackx.render.planar import draw_planar, planar_bounds
 from stackx.render.style import Style, draw_column
@@ -52,4 +55,5 @@ def describe(state: Any) -> str:
     """Where the top of the pile is and the deepest contact, for a player's note under a picture."""
     if isinstance(state, ColumnState):
         return f"top box {state.y[0, -1]:.3f} m · deepest contact {state.penetration()[0].max():.4f} m"
-    return f"highest box {highest(state)[0]:.3f} m · deepest contact {deepest(state)[0]:.4f} m"
+    highest = top_height(state, np.full(state.batch, -1))[0]
+    return f"highest box {highest:.3f} m · deepest contact {max_depth(state):.4f} m"
