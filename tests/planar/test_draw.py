@@ -205,3 +205,63 @@ def test_planar_runs_are_drawn_and_played(cli: Cli, tmp_path: Path) -> None:
     # 4 sin 30 + 0.5 cos 30 high, the box 1 m from it along the normal and 2 m up the slope
     a = math.radians(30)
     assert notes[0].startswith(f"highest box {4 * math.sin(a) + 1.5 * math.cos(a) + 2 * math.sin(a):.3f} m")
+
+
+LEANING = """
+description: two boxes on the ground, one leaning on a static post
+scene:
+  name: planar
+  stack: {count: 2, offset: 0.2, seed: 4}
+  boxes:
+    - {x: 4, y: 1.0, width: 0.4, height: 2.0, static: true}
+    - {x: 3.0, y: 1.2, angle: -30, rests: true}
+solver: {name: planar-pgs, iterations: 4}
+runs:
+  a: {}
+  b: {solver: {name: planar-pgs, iterations: 12}}
+steps: 30
+"""
+
+
+def test_the_bench_series_follow_the_pile_top_depth_and_drift(tmp_path: Path) -> None:
+    """The bench's series of a planar batch, sampled by the step observer, against the same figures read
+    here from the states the runner recorded at the same steps: the top is the highest movable box (this
+    scene has no rigid pile), the drift that of the boxes placed at rest (the stack's two and the leaning
+    one, not the post) from where they began."""
+    from stackx.bench.trajectory import SeriesLog
+    from stackx.config import load
+    from stackx.models.planar.measures import max_depth
+    from stackx.runner import run_experiment
+
+    config = tmp_path / "lean.yaml"
+    config.write_text(LEANING)
+    spec = load(str(config))
+    watched = SeriesLog(None)
+    result = run_experiment(spec, None, watched, set(range(31)))
+    for run in result.runs:
+        series = watched.series(run.name)
+        assert series is not None and series.steps == list(range(31))
+        start = run.frames[0]
+        for k in (0, 1, 17, 30):
+            state = run.frames[k]
+            ys = state.y[0].tolist()
+            assert series.top[k] == max(ys[0], ys[1], ys[3])  # the post (body 2) is static
+            assert series.depth[k] == max_depth(state)
+            rest = (0, 1, 3)
+            assert series.drift_x[k] == max(abs(state.x[0, i] - start.x[0, i]) for i in rest)
+            assert series.drift_angle[k] == max(abs(state.angle[0, i] - start.angle[0, i]) for i in rest)
+        assert series.drift_angle[-1] > 0  # the leaning box turned
+    doc = watched.series("a").until(10).as_dict()
+    assert sorted(doc) == ["drift_angle", "drift_x", "dt", "max_depth", "steps", "top"] and doc["steps"] == list(range(10))
+    # the report's plot gets the two drift panels below the column's two (11.5 x 6.4 inches at 100 dpi)
+    import dataclasses
+
+    from stackx.bench.plots import trajectories_png
+    from stackx.bench.sweep import Record
+    from tests.lab.reference import png_header
+
+    rec = Record("lean", "planar-pgs", "iterations", 4, "case", {}, series=watched.series("a"))
+    tall = png_header(trajectories_png("lean", [rec], 0.02, None, (0.05, 0.05)))  # type: ignore[arg-type]
+    flat = dataclasses.replace(rec, series=dataclasses.replace(rec.series, drift_x=None, drift_angle=None))
+    short = png_header(trajectories_png("lean", [flat], 0.02, None, (0.05, 0.05)))  # type: ignore[arg-type]
+    assert (tall.width, tall.height, short.width, short.height) == (1150, 640, 1150, 350)
