@@ -53,3 +53,41 @@ def test_planar_players_step_to_the_end(tmp_path: Path, monkeypatch: pytest.Monk
                                           for k in (0, 1, 2, 0, 2)]
     assert sizes == [[True, 256], [True, 256]]
     assert not problems, problems
+
+
+BENCH_CASE = """
+description: three boxes with small offsets
+scene: {name: planar, stack: {count: 3, offset: 0.1, seed: 1}}
+solver: {name: planar-pgs, iterations: 8}
+steps: 60
+bench: {knob: [2, 8], timing: {steps: 5, repeats: 1}}
+"""
+
+
+def test_the_report_draws_a_planar_case(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """A planar case's section: its plot against time with the drift panels and its start and final states,
+    every picture loaded."""
+    import subprocess
+    import sys
+
+    from tests.conftest import REPO
+    from tests.robust.test_player_browser import _browser
+
+    _browser()
+    (tmp_path / "cases").mkdir()
+    (tmp_path / "cases" / "stack-3.yaml").write_text(BENCH_CASE)
+    done = subprocess.run([sys.executable, "-m", "stackx", "bench", str(tmp_path / "cases"), "--out",
+                           str(tmp_path / "out"), "--solvers", "planar-pgs", "-q"],
+                          cwd=REPO, capture_output=True, text=True, timeout=600)
+    assert done.returncode == 0, done.stderr
+    with serving(tmp_path / "out") as url, browsing(tmp_path / "profile") as (page, problems):
+        page.goto(url + "report.html#stack-3", wait_until="load")  # type: ignore[attr-defined]
+        page.wait_for_function("document.getElementById('stack-3').open")  # type: ignore[attr-defined]
+        images = page.eval_on_selector_all("#stack-3 img", "els => els.map(e => [e.alt, e.complete, e.naturalWidth, e.naturalHeight])")  # type: ignore[attr-defined]
+        captions = page.eval_on_selector_all("figure.state figcaption", "els => els.map(e => e.textContent)")  # type: ignore[attr-defined]
+        keep(page, "planar-report-case.png", capsys)
+    plot = next(i for i in images if i[0].startswith("top box height"))
+    assert "drift and turn" in plot[0] and plot[1:] == [True, 1150, 640]
+    assert [i[1:] for i in images if i[0] in captions] == [[True, 256, 256]] * 2
+    assert captions[0] == "start" and captions[1].startswith("planar-pgs (iterations ")
+    assert not problems, problems
