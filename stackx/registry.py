@@ -42,7 +42,8 @@ BUILTIN_MODULES = {
                "stackx.solvers.baumgarte", "stackx.solvers.split_impulse",
                "stackx.solvers.ngs", "stackx.solvers.soft_step",
                "stackx.solvers.xpbd", "stackx.solvers.jacobi",
-               "stackx.solvers.planar.pgs",
+               "stackx.solvers.planar.pgs", "stackx.solvers.planar.warm_start", "stackx.solvers.planar.ngs",
+               "stackx.solvers.planar.exact", "stackx.solvers.planar.soft_step", "stackx.solvers.planar.xpbd",
                # engines: their packages are imported only when a run is set up (stackx.solvers.engines.engine)
                "stackx.solvers.engines.pymunk_engine", "stackx.solvers.engines.box2d_engine",
                "stackx.solvers.engines.box2d3_engine", "stackx.solvers.engines.mujoco_engine"],

@@ -9,13 +9,11 @@ import numpy as np
 from stackx.errors import Fail
 from stackx.spec import Plan, RunSpec, record_steps
 
-BYTES_PER_BOX = 40  # one recorded state per box: y, v, inv_mass, half (float64) and touched, rounded up
-
-
 def memory_bytes(plan: Plan) -> int:
     """Bytes of the states kept while ``plan`` runs: each run's recorded steps, plus the working state."""
     wanted = plan.frame_steps()
-    return sum((len(record_steps(run, wanted)) + 2) * run.scene.size() * BYTES_PER_BOX for run in plan.runs)
+    return sum((len(record_steps(run, wanted)) + 2) * run.scene.size() * run.model.bytes_per_body
+               for run in plan.runs)
 
 
 def work(plan: Plan) -> int:
@@ -50,7 +48,7 @@ def check(plan: Plan, fail: Fail) -> None:
 def _fastest_start(run: RunSpec) -> float | None:
     """The fastest initial speed of a run's boxes (None when the scene cannot be built here: the run says why)."""
     try:
-        v = run.scene.build().v
+        speed = run.model.speeds(run.scene.build())
     except Exception:
         return None
-    return float(np.abs(v).max()) if np.size(v) and np.isfinite(v).all() else None
+    return float(np.max(speed)) if np.size(speed) and np.isfinite(speed).all() else None

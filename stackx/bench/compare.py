@@ -163,7 +163,7 @@ def chosen(records: list[Record]) -> Record:
 
 
 SHORT = {"max_depth": "overlaps", "max_gap": "gap", "reach": "crushed", "rms_motion": "moving",
-         "launch": "launched"}  # a failed check in a word; |top_rest_error| is 'sunk' or 'high' by its sign
+         "launch": "launched", "drift_x": "drifted", "drift_angle": "turned", "slide_error": "slides wrong"}  # a failed check in a word; |top_rest_error| is 'sunk' or 'high' by its sign
 
 
 def why(rec: Record) -> str:

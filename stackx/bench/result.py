@@ -57,6 +57,18 @@ DEFINITIONS = {
     "top_rest_error": "final height of the top box minus its height on a rigid column (heights of the boxes "
                       "below plus its half-height); negative: the column sank",
     "top_p2p": f"peak-to-peak height of the top box over the last {MOTION_WINDOW} steps",
+    "planar": "planar cases are judged by the same criteria with the checks that can fail on them: 'holds' "
+              "adds drift_x <= criteria.drift and drift_angle <= criteria.turn for the boxes the scene places "
+              "where they should stay, and on a ramp slide_error <= criteria.slide; top_rest_error is judged where "
+              "a rigid pile gives the top box a rest height (stacks, pyramids, heavy on light), over the contacts "
+              "under it (rest_contacts); max_gap is not measured; a box sliding down a ramp is not judged "
+              "'settled' (a verdict with nothing to judge reads 'not judged')",
+    "drift_x": "(planar) the largest horizontal distance a box placed at rest ended from where it started (m)",
+    "drift_angle": "(planar) the largest angle a box placed at rest ended turned from how it started (rad); a "
+                   "toppled box has turned by about 1.57",
+    "slide_error": "(planar ramp) the box's acceleration down the slope, its final velocity along the slope over "
+                   "the run's time from rest, minus the analytic answer: 0 where tan(angle) <= mu (it sticks), "
+                   "g (sin a - mu cos a) where it slides (m/s^2)",
     "top_reversals": "(cases with a claim) how many times the top box's step-to-step motion changed direction "
                      f"over the whole run once it rested on something, steps under {STILL:g} m skipped",
     "top_rise": "(cases with a claim) the top box's fastest upward motion from positions, (y_next - y)/dt",

@@ -63,6 +63,7 @@ class Model:
     VECTORS: ClassVar[dict[str, str]] = {}  # measure -> what it means (one number per body)
     window: ClassVar[int] = 0  # final steps whose states ``measure`` needs beside the last one
     reference: ClassVar[str | None] = None  # the bench's reference solver on this model, if it has one
+    bytes_per_body: ClassVar[int] = 40  # memory of one recorded state per body, for limits.max_memory_mb
 
     @classmethod
     def concat(cls, states: list[Any]) -> Any:
@@ -82,6 +83,12 @@ class Model:
     @classmethod
     def offender(cls, state: Any, max_speed: float) -> Offender | None:
         """The first body of the first row that is not finite or moves faster than ``max_speed``, or None."""
+        raise NotImplementedError
+
+    @classmethod
+    def speeds(cls, state: Any) -> Any:
+        """Each body's speed (m/s), batch axis first, as ``limits.max_speed`` bounds it: a scene starting
+        faster is refused at load. A model without it is checked only once it runs (``offender``)."""
         raise NotImplementedError
 
     @classmethod

@@ -91,7 +91,7 @@ class Thrown(BaseModel):
     density: float | None = Field(None, gt=0, description="its density (default: the stack's)", **Finite)
 
 
-class Stack(Material):
+class PlanarStack(Material):
     """``count`` boxes on top of each other, each shifted sideways by a random amount up to ``offset``."""
 
     count: int = Field(gt=0, le=100_000, description="number of boxes")
@@ -104,7 +104,7 @@ class Stack(Material):
     thrown: Thrown | None = Field(None, description="a box thrown down onto the top (fast into a resting stack)")
 
     @model_validator(mode="after")
-    def _offsets(self) -> Stack:
+    def _offsets(self) -> PlanarStack:
         if self.offset >= self.width / 2:
             raise ValueError(f"offset {self.offset:g} must be below half the width ({self.width / 2:g}): "
                              "neighbours must overlap to rest on each other")
@@ -180,7 +180,7 @@ class PlanarParams(BaseModel):
 
     model_config = ConfigDict(extra="forbid")
     ramp: Ramp | None = Field(None, description="a box on a static ramp")
-    stack: Stack | None = Field(None, description="a vertical stack, with random horizontal offsets")
+    stack: PlanarStack | None = Field(None, description="a vertical stack, with random horizontal offsets")
     pyramid: Pyramid | None = Field(None, description="a pyramid of rows")
     card_house: CardHouse | None = Field(None, description="leaning cards held by friction")
     heavy_on_light: HeavyOnLight | None = Field(None, description="a heavy box on light ones")
@@ -222,7 +222,7 @@ def _box(x: float, y: float, width: float, height: float, density: float, fricti
                 static=static, rests=rests and not static, vy=vy)
 
 
-def stack_boxes(s: Stack) -> list[Body]:
+def stack_boxes(s: PlanarStack) -> list[Body]:
     """The stack's boxes bottom up, then the thrown box; offsets from ``numpy.random.default_rng(seed)``."""
     import numpy as np
 
@@ -251,9 +251,10 @@ def card_boxes(c: CardHouse) -> list[Body]:
     A card of length L and thickness t leaning by a from the vertical, its lower inner corner on the floor,
     has its centre (t/2) sin a + (L/2) cos a above the floor; its top inner corner is L cos a above the floor
     and its top outer corner, the highest point, L cos a + t sin a. The pair's two top inner corners meet on
-    the pair's centre line. A flat card lies across two neighbouring pairs, on the inner pair's top outer
-    corners (t cos a from the centre line), reaching half of t cos a past them, so that neighbouring flat
-    cards leave a gap of t cos a between them. The feet reach L sin a + t cos a from the centre line.
+    the pair's centre line. A flat card lies across two neighbouring pairs, on the top outer corners of the
+    two cards that face each other (each t cos a from its pair's centre line), reaching half of t cos a past
+    them, so that neighbouring flat cards leave a gap of t cos a. The feet reach L sin a + t cos a from the
+    centre line.
     """
     a = math.radians(c.angle)
     sa, ca = math.sin(a), math.cos(a)

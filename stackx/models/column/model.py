@@ -25,6 +25,7 @@ class Column(Model):
     VECTORS = measures.VECTORS
     window = measures.MOTION_WINDOW
     reference = "exact"
+    bytes_per_body = 40  # a recorded state per box: y, v, inv_mass, half (float64) and touched, rounded up
 
     @classmethod
     def measure(cls, frames: Mapping[int, Any], steps: int, dt: Any) -> list[Measures]:
@@ -47,6 +48,10 @@ class Column(Model):
         if not finite[row, box]:
             return row, box, "non-finite", f"is not finite (y = {y}, v = {v})"
         return row, box, "speed", f"moves at {abs(v):.4g} m/s, over limits.max_speed = {max_speed:g} m/s"
+
+    @classmethod
+    def speeds(cls, state: Any) -> Any:
+        return np.abs(state.v)
 
     @classmethod
     def motion(cls, state: Any, b: int) -> dict[str, list[float]]:

@@ -26,6 +26,13 @@ class Planar(Model):
     VECTORS = measures.VECTORS
     window = measures.MOTION_WINDOW
     reference = "planar-exact"
+    bytes_per_body = 112  # a recorded state per body: 12 float64 arrays and touched, rounded up
+
+    @classmethod
+    def speeds(cls, state: Any) -> np.ndarray:
+        """Each body's fastest point, ``(batch, bodies)``: the centre's speed plus |w| times the half-diagonal
+        (m/s), what ``limits.max_speed`` bounds."""
+        return np.hypot(state.vx, state.vy) + np.abs(state.w) * measures.half_diagonal(state)  # type: ignore[no-any-return]
 
     @classmethod
     def measure(cls, frames: Mapping[int, Any], steps: int, dt: Any) -> list[Measures]:
@@ -43,7 +50,7 @@ class Planar(Model):
         velocity = np.isfinite(state.vx) & np.isfinite(state.vy) & np.isfinite(state.w)
         finite = pose & velocity
         with np.errstate(invalid="ignore", over="ignore"):
-            speed = np.hypot(state.vx, state.vy) + np.abs(state.w) * measures.half_diagonal(state)
+            speed = cls.speeds(state)
         fast = np.where(finite, speed, 0.0) > max_speed
         bad = ~finite | fast
         if not bad.any():
@@ -69,4 +76,7 @@ class Planar(Model):
 
     @classmethod
     def step_log(cls, criteria: Any) -> Any:
-        return None
+        """Every step against ``planar-exact``'s solve of the same problem (``stackx.models.planar.error``)."""
+        from stackx.models.planar.error import StepLog
+
+        return StepLog(criteria)

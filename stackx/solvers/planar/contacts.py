@@ -25,9 +25,16 @@ Functions, in the order a step uses them:
 - ``recall(...)`` / ``remember(...)``: warm start: the impulses of the last step's points found again by
   ``(A, B, FEATURE)``, and the impulses of this step kept for the next;
 - ``warm_start(...)``: apply the carried impulses before the first iteration;
-- ``accumulated_iteration(...)``: one Gauss-Seidel pass with accumulated clamping, friction then normal per
-  point: the friction total stays in ``[-mu pn, mu pn]`` of the current normal total, the normal total >= 0;
+- ``friction_visit``, ``normal_visit``, ``block_normal``: one point's friction or normal total, or the two
+  normal totals of a two-point manifold solved together (Box2D 2.x's block solver), with accumulated clamping:
+  the friction total stays in ``[-mu pn, mu pn]`` of the current normal total, the normal total >= 0;
+- ``accumulated_iteration(...)``: one Gauss-Seidel pass over the manifolds, friction then normal;
+- ``solve_velocities(...)``: the velocity half of a step with accumulated impulses, the stages above in
+  order: gravity, contacts within ``speculative``, targets, warm start (or none), iterations, remember;
 - ``integrate_positions(...)``: positions and angles move with the velocities over ``dt``;
+- ``separation_push(...)``: one nonlinear Gauss-Seidel pass on positions (Box2D 2.x's position solve): each
+  point's separation measured again from where its bodies are now (``anchor_locals``), and the point pushed
+  apart at its lever arms, turning the bodies, by ``percent * (depth - slop)``, at most ``max_correction``;
 - ``correct_positions(...)``: the lab's position correction carried over: each overlapping point, in table
   order, pushes its bodies apart along its normal by ``percent * max(depth - slop, 0)``, shared by inverse
   masses, translation only, each depth measured after the pushes before it.
@@ -54,6 +61,7 @@ NX, NY, PX, PY, DEPTH, RAX, RAY, RBX, RBY, KN, KT, MU, TARGET, PN, PT = range(15
 LNX, LNY, LFX, LFY, LQX, LQY = range(15, 21)
 COLUMNS = 21
 FLIPPED = 64  # collide's features from 64 up: the reference face is on body B
+BLOCK_CONDITION = 1000.0  # largest condition (k11^2 / det) a two-point block is solved at (Box2D 2.x's)
 
 
 @kernel
@@ -175,12 +183,13 @@ def apply_impulse(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, inv_mass: np.nd
 
 
 @kernel
-def set_targets(table: np.ndarray, count: int, dt: float) -> None:
+def set_targets(table: np.ndarray, count: int, dt: float, beta: float, slop: float, max_push: float) -> None:
     """The slowest normal velocity each point accepts: ``depth/dt`` for a point still apart (a speculative
-    point may close its gap within the step, no more), 0 for a touching one (no approach)."""
+    point may close its gap within the step, no more); for a touching one 0 (no approach), or with ``beta``
+    > 0 the push-out ``beta/dt * max(depth - slop, 0)``, at most ``max_push`` (a Baumgarte bias)."""
     for k in range(count):
         d = table[k, DEPTH]
-        table[k, TARGET] = d / dt if d < 0.0 else 0.0
+        table[k, TARGET] = d / dt if d < 0.0 else min(beta / dt * max(d - slop, 0.0), max_push)
 
 
 @kernel
@@ -224,31 +233,142 @@ def warm_start(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, inv_mass: np.ndarr
 
 
 @kernel
-def accumulated_iteration(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, inv_mass: np.ndarray,
-                          inv_inertia: np.ndarray, ids: np.ndarray, table: np.ndarray, count: int) -> None:
-    """One Gauss-Seidel pass over the points in table order with accumulated clamping.
+def friction_visit(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, inv_mass: np.ndarray, inv_inertia: np.ndarray,
+                   ids: np.ndarray, table: np.ndarray, k: int) -> None:
+    """Point ``k``'s tangent total moved towards stopping its sliding, kept within ``mu`` times its normal
+    total so far: a point never holds more sideways than it is pressed."""
+    nx, ny = table[k, NX], table[k, NY]
+    limit = table[k, MU] * table[k, PN]
+    old = table[k, PT]
+    total = old - table[k, KT] * relative_velocity(vx, vy, w, ids, table, k, -ny, nx)
+    total = min(max(total, -limit), limit)
+    if total != old:
+        step = total - old
+        apply_impulse(vx, vy, w, inv_mass, inv_inertia, ids, table, k, -step * ny, step * nx)
+        table[k, PT] = total
 
-    Per point, friction first (bounded by the normal total so far, so a point never holds more sideways than
-    it is pressed), then the normal: a visit's increment may be negative (an earlier visit pushed too hard),
-    only the totals are clamped: ``PN >= 0`` and ``|PT| <= mu PN``.
+
+@kernel
+def normal_visit(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, inv_mass: np.ndarray, inv_inertia: np.ndarray,
+                 ids: np.ndarray, table: np.ndarray, k: int) -> None:
+    """Point ``k``'s normal total moved to meet its target, kept >= 0: the increment may be negative (an
+    earlier visit pushed too hard), only the total may not pull."""
+    nx, ny = table[k, NX], table[k, NY]
+    old = table[k, PN]
+    total = max(old + table[k, KN] * (table[k, TARGET] - relative_velocity(vx, vy, w, ids, table, k, nx, ny)), 0.0)
+    if total != old:
+        step = total - old
+        apply_impulse(vx, vy, w, inv_mass, inv_inertia, ids, table, k, step * nx, step * ny)
+        table[k, PN] = total
+
+
+@kernel
+def block_normal(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, inv_mass: np.ndarray, inv_inertia: np.ndarray,
+                 ids: np.ndarray, table: np.ndarray, k: int) -> bool:
+    """The normal totals of points ``k`` and ``k + 1`` (one manifold: same bodies, same normal) solved together.
+
+    The two points' complementarity problem (``x >= 0``, ``K x + b >= 0``, ``x . (K x + b) = 0`` with ``K``
+    the 2 x 2 normal mass matrix) has four candidate answers: both pressing, only the first, only the second,
+    neither; the first that satisfies every condition is it, and the change from the current totals is applied.
+    A box resting flat then has its load shared by both corners as the exact solve shares it, where visiting
+    the corners one after the other lets the first take too much and the box rock. Returns False (nothing
+    done) when ``K`` is too ill-conditioned to invert (the two points nearly on one line through the bodies'
+    lever arms) or no case fits in rounding; the caller then visits the points one by one.
     """
-    for k in range(count):
-        nx, ny = table[k, NX], table[k, NY]
-        limit = table[k, MU] * table[k, PN]
-        old = table[k, PT]
-        total = old - table[k, KT] * relative_velocity(vx, vy, w, ids, table, k, -ny, nx)
-        total = min(max(total, -limit), limit)
-        step = total - old
-        if step != 0.0:
-            apply_impulse(vx, vy, w, inv_mass, inv_inertia, ids, table, k, -step * ny, step * nx)
-            table[k, PT] = total
-        old = table[k, PN]
-        total = max(old + table[k, KN] * (table[k, TARGET] - relative_velocity(vx, vy, w, ids, table, k, nx, ny)),
-                    0.0)
-        step = total - old
-        if step != 0.0:
-            apply_impulse(vx, vy, w, inv_mass, inv_inertia, ids, table, k, step * nx, step * ny)
-            table[k, PN] = total
+    nx, ny = table[k, NX], table[k, NY]
+    j = k + 1
+    a, b = ids[k, A], ids[k, B]
+    ima, iia = (inv_mass[a], inv_inertia[a]) if a >= 0 else (0.0, 0.0)
+    k11, k22 = 1.0 / table[k, KN], 1.0 / table[j, KN]
+    k12 = (ima + inv_mass[b] + iia * (table[k, RAX] * ny - table[k, RAY] * nx) * (table[j, RAX] * ny - table[j, RAY] * nx)
+           + inv_inertia[b] * (table[k, RBX] * ny - table[k, RBY] * nx) * (table[j, RBX] * ny - table[j, RBY] * nx))
+    det = k11 * k22 - k12 * k12
+    if not k11 * k11 < BLOCK_CONDITION * det:
+        return False
+    a1, a2 = table[k, PN], table[j, PN]
+    b1 = relative_velocity(vx, vy, w, ids, table, k, nx, ny) - table[k, TARGET] - (k11 * a1 + k12 * a2)
+    b2 = relative_velocity(vx, vy, w, ids, table, j, nx, ny) - table[j, TARGET] - (k12 * a1 + k22 * a2)
+    x1 = (k12 * b2 - k22 * b1) / det
+    x2 = (k12 * b1 - k11 * b2) / det
+    if not (x1 >= 0.0 and x2 >= 0.0):
+        x1, x2 = -b1 / k11, 0.0
+        if not (x1 >= 0.0 and k12 * x1 + b2 >= 0.0):
+            x1, x2 = 0.0, -b2 / k22
+            if not (x2 >= 0.0 and k12 * x2 + b1 >= 0.0):
+                x1, x2 = 0.0, 0.0
+                if not (b1 >= 0.0 and b2 >= 0.0):
+                    return False
+    d1, d2 = x1 - a1, x2 - a2
+    apply_impulse(vx, vy, w, inv_mass, inv_inertia, ids, table, k, d1 * nx, d1 * ny)
+    apply_impulse(vx, vy, w, inv_mass, inv_inertia, ids, table, j, d2 * nx, d2 * ny)
+    table[k, PN], table[j, PN] = x1, x2
+    return True
+
+
+@kernel
+def manifold_visit(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, inv_mass: np.ndarray, inv_inertia: np.ndarray,
+                   ids: np.ndarray, table: np.ndarray, k: int, size: int, block: bool) -> None:
+    """The ``size`` (1 or 2) points from ``k`` of one manifold: friction of each point first, bounded by the
+    normal totals so far, then the normals, both at once (``block_normal``) when ``block`` and there are two,
+    else point by point."""
+    for i in range(k, k + size):
+        friction_visit(vx, vy, w, inv_mass, inv_inertia, ids, table, i)
+    if not (block and size == 2 and block_normal(vx, vy, w, inv_mass, inv_inertia, ids, table, k)):
+        for i in range(k, k + size):
+            normal_visit(vx, vy, w, inv_mass, inv_inertia, ids, table, i)
+
+
+@kernel
+def accumulated_iteration(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, inv_mass: np.ndarray,
+                          inv_inertia: np.ndarray, ids: np.ndarray, table: np.ndarray, count: int,
+                          block: bool, backward: bool) -> None:
+    """One Gauss-Seidel pass over the manifolds (the one or two consecutive points of the same two bodies)
+    with accumulated clamping, in table order or, ``backward``, from the last manifold to the first.
+
+    A pass in table order (the ground's points first, then pairs by index: bottom-up in a stack) carries a
+    push up a pile in one pass but a load down it by only one contact; a backward pass does the opposite, so
+    alternating them reaches every contact of a tall stack in two passes either way.
+    """
+    if backward:
+        k = count - 1
+        while k >= 0:
+            size = 2 if k >= 1 and ids[k - 1, A] == ids[k, A] and ids[k - 1, B] == ids[k, B] else 1
+            manifold_visit(vx, vy, w, inv_mass, inv_inertia, ids, table, k - size + 1, size, block)
+            k -= size
+    else:
+        k = 0
+        while k < count:
+            size = 2 if k + 1 < count and ids[k + 1, A] == ids[k, A] and ids[k + 1, B] == ids[k, B] else 1
+            manifold_visit(vx, vy, w, inv_mass, inv_inertia, ids, table, k, size, block)
+            k += size
+
+
+@kernel
+def solve_velocities(x: np.ndarray, y: np.ndarray, angle: np.ndarray, vx: np.ndarray, vy: np.ndarray,
+                     w: np.ndarray, inv_mass: np.ndarray, inv_inertia: np.ndarray, hx: np.ndarray, hy: np.ndarray,
+                     friction: np.ndarray, g: float, dt: float, speculative: float, carry: bool, iterations: int,
+                     block: bool, alternate: bool, beta: float, slop: float, max_push: float, relax: int, ids: np.ndarray, table: np.ndarray, keys: np.ndarray, carried: np.ndarray,
+                     held: int) -> tuple[np.ndarray, np.ndarray, int, int]:
+    """The velocity half of a step with accumulated impulses: gravity; the points within ``speculative`` of
+    touching with their anchors, masses and targets; the last step's impulses found again and applied
+    (``carry``; otherwise every point starts from zero); ``iterations`` passes (two-point manifolds' normals
+    together when ``block``); this step's impulses kept.
+    Returns the table (maybe grown), its count and how many points the memory now holds."""
+    gravity(vy, inv_mass, g, dt)
+    ids, table, count = find_contacts(x, y, angle, hx, hy, inv_mass, speculative, ids, table)
+    prepare(x, y, inv_mass, inv_inertia, friction, ids, table, count)
+    set_targets(table, count, dt, beta, slop, max_push)
+    if carry:
+        recall(ids, table, count, keys, carried, held)
+        warm_start(vx, vy, w, inv_mass, inv_inertia, ids, table, count)
+    for i in range(iterations):
+        accumulated_iteration(vx, vy, w, inv_mass, inv_inertia, ids, table, count, block, alternate and i % 2 == 1)
+    if relax > 0:
+        set_targets(table, count, dt, 0.0, 0.0, 0.0)
+        for i in range(relax):
+            accumulated_iteration(vx, vy, w, inv_mass, inv_inertia, ids, table, count, block,
+                                  alternate and i % 2 == 1)
+    return ids, table, count, remember(ids, table, count, keys, carried)
 
 
 @kernel
@@ -290,3 +410,61 @@ def correct_positions(x: np.ndarray, y: np.ndarray, inv_mass: np.ndarray, ids: n
             y[b] += up * ny
             shift[b, 0] += up * nx
             shift[b, 1] += up * ny
+
+
+@kernel
+def separation_push(x: np.ndarray, y: np.ndarray, angle: np.ndarray, inv_mass: np.ndarray,
+                    inv_inertia: np.ndarray, ids: np.ndarray, table: np.ndarray, count: int, slop: float,
+                    percent: float, max_correction: float) -> float:
+    """One pass over the points in table order, pushing each apart where it is now; returns the deepest
+    depth the pass measured.
+
+    A point's face plane and corner (``anchor_locals``) are carried by their bodies, so the depth is measured
+    from the current positions and angles, rotation included, after every push before it. The push
+    ``percent * (depth - slop)``, at most ``max_correction``, is a position impulse along the face normal at
+    the middle of corner and plane, shared by the bodies' inverse mass and inertia (the point's effective
+    mass for the current lever arms): a box tilted into its support is turned back, which a push at the
+    centre cannot do.
+    """
+    deepest = -np.inf
+    for k in range(count):
+        a, b = ids[k, A], ids[k, B]
+        if a >= 0 and ids[k, FEATURE] >= FLIPPED:
+            r, i = b, a
+        else:
+            r, i = a, b
+        fnx, fny, fx, fy = table[k, LNX], table[k, LNY], table[k, LFX], table[k, LFY]
+        imr, iir = 0.0, 0.0
+        if r >= 0:
+            c, s = np.cos(angle[r]), np.sin(angle[r])
+            fnx, fny = c * fnx - s * fny, s * fnx + c * fny
+            fx, fy = x[r] + c * fx - s * fy, y[r] + s * fx + c * fy
+            imr, iir = inv_mass[r], inv_inertia[r]
+        c, s = np.cos(angle[i]), np.sin(angle[i])
+        qx = x[i] + c * table[k, LQX] - s * table[k, LQY]
+        qy = y[i] + s * table[k, LQX] + c * table[k, LQY]
+        depth = -((qx - fx) * fnx + (qy - fy) * fny)
+        deepest = max(deepest, depth)
+        move = min(percent * (depth - slop), max_correction)
+        if move <= 0.0:
+            continue
+        px, py = 0.5 * (qx + fx), 0.5 * (qy + fy)
+        rix, riy = px - x[i], py - y[i]
+        ci = rix * fny - riy * fnx
+        total = inv_mass[i] + inv_inertia[i] * ci * ci
+        cr = 0.0
+        if r >= 0:
+            rrx, rry = px - x[r], py - y[r]
+            cr = rrx * fny - rry * fnx
+            total += imr + iir * cr * cr
+        if total <= 0.0:
+            continue
+        p = move / total
+        x[i] += inv_mass[i] * p * fnx
+        y[i] += inv_mass[i] * p * fny
+        angle[i] += inv_inertia[i] * p * ci
+        if r >= 0:
+            x[r] -= imr * p * fnx
+            y[r] -= imr * p * fny
+            angle[r] -= iir * p * cr
+    return deepest

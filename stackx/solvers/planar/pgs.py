@@ -26,19 +26,11 @@ from stackx.kernel import kernel, prange
 from stackx.models.planar.monitor import contact_room, observe
 from stackx.models.planar.state import PlanarState
 from stackx.registry import solvers
-from stackx.solvers.base import Correction, LabCorrection, Solver
+from stackx.solvers.base import Correction, LabCorrection
+from stackx.solvers.planar.base import PlanarSolver, sequential_only
 from stackx.solvers.planar.contacts import (DEPTH, KN, KT, MU, NX, NY, PN, PT, apply_impulse, contact_workspace,
                                             correct_positions, find_contacts, gravity, integrate_positions,
                                             prepare, relative_velocity)
-
-
-def sequential_only(correction: Correction | None) -> Correction | None:
-    """Refuse the column's ``global`` stage and ``max_push``: only the lab's sequential stage is carried over
-    to planar boxes, and a knob that would be ignored is an error rather than a silent no-op."""
-    if correction is not None and (correction.stage != "sequential" or correction.max_push is not None):
-        raise ValueError("the planar model has only the sequential stage: leave 'stage' at 'sequential' and "
-                         "'max_push' unset")
-    return correction
 
 
 class PlanarPGSParams(BaseModel):
@@ -104,17 +96,6 @@ def planar_pgs_advance(x: np.ndarray, y: np.ndarray, angle: np.ndarray, vx: np.n
             observe(xb, yb, ab, hxb, hyb, im, dt[b], last, peak, reach, touched, launch, b)
 
 
-class PlanarSolver(Solver):
-    """Base of the planar solvers: they step ``PlanarState``s."""
-
-    models = ("planar",)
-
-    def lab_correction(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Per batch row: whether the lab's correction runs, its slop and percent."""
-        on, slop, percent, _, _ = self.corrections()
-        return on, slop, percent
-
-
 @solvers.register("planar-pgs")
 class PlanarPGS(PlanarSolver):
     """The lab's projected Gauss-Seidel on planar boxes: ``iterations`` trade CPU for how solid a pile is."""
@@ -131,6 +112,3 @@ class PlanarPGS(PlanarSolver):
         planar_pgs_advance(s.x, s.y, s.angle, s.vx, s.vy, s.w, s.inv_mass, s.inv_inertia, s.hx, s.hy, s.friction,
                            self.gravity, self.dt, self.iterations, self.corrects, self.slop, self.percent,
                            *s.monitors(), steps)
-
-    def remove_box(self, state: PlanarState, box: int) -> None:
-        """Nothing to forget: the lab solver keeps no memory between steps."""

@@ -1,0 +1,161 @@
+"""What the bench measures on every step of a planar run: the error against the reference solve, when boxes
+passed through each other, and when the pile recovered and settled. The column's step log
+(``stackx.models.column.error``) does the same for the column, and the module text there says why every step
+and why along the solver's own path; this one carries it over to boxes that slide and turn.
+
+**Error against the reference.** At every step ``k`` of a solver's own run, from the state before the step
+(poses and velocities as the solver left them), the reference (``stackx.models.planar.step_problem``) sets the
+step's problem (gravity, the points within the solver's own ``speculative`` margin, 0 for a solver without
+one) and solves it to a residual below 1e-10 m/s. Per movable box, the difference between the velocities the
+solver stored after step ``k`` and the reference's is one speed,
+``sqrt(dvx^2 + dvy^2 + (r dw)^2)`` with ``r`` the box's half-diagonal (rotation as the speed of its
+corners), in m/s. The error is the RMS over all steps and movable boxes, with the largest difference and its
+step beside it. The reference starts each step from the impulses it found for the same points the step
+before, so a run's steps cost it few Newton rounds.
+
+A step the reference cannot solve (it says so rather than return a wrong answer) is not measured; how many
+there were is reported as ``unsolved`` beside the error, so a gap in the measurement is never silent.
+
+**Crushed.** Once a box has passed half-way into another (the ``reach`` monitor above ``criteria.reach``),
+contact normals and features no longer describe which box rests on which; the first such step is kept and
+the error stops there.
+
+**Steps to recover and to settle.** After every step: is every contact's depth (by the model's collision
+test) at most the depth limit (``depth_factor x slop``); is the RMS motion of the step over movable boxes,
+``sqrt(dx^2 + dy^2 + (r da)^2)/dt``, below ``criteria.settle``. ``steps_to_recover`` is the step from which
+the first stays true to the end, ``steps_to_settle`` the step from which both do; None when the end of the
+run does not reach it. (The column's "no gap" check has no planar meaning: boxes may rightly stand apart.)
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from stackx.criteria import Criteria
+from stackx.models.planar.measures import half_diagonal, max_depth
+from stackx.models.planar.reference import ReferenceFailure
+from stackx.models.planar.state import PlanarState
+from stackx.models.planar.step_problem import ReferenceStep
+from stackx.runner import OnStep
+from stackx.spec import RunSpec
+
+
+class BatchLog:
+    """What the steps of one batch came to, one array element per row (as the column's ``BatchLog``)."""
+
+    def __init__(self, rows: int, bodies: int) -> None:
+        self.reference = ReferenceStep(rows, bodies)
+        self.bodies = bodies
+        self.sumsq = np.zeros(rows)
+        self.values = np.zeros(rows, dtype=np.int64)     # box velocities compared (steps x movable boxes)
+        self.measured = np.zeros(rows, dtype=np.int64)   # steps compared
+        self.unsolved = np.zeros(rows, dtype=np.int64)   # steps the reference could not solve
+        self.worst = np.full(rows, -1.0)
+        self.worst_step = np.full(rows, -1, dtype=np.int64)
+        self.crushed_at = np.full(rows, -1, dtype=np.int64)
+        self.last_overlap = np.full(rows, -1, dtype=np.int64)  # last step after which a contact overlapped too much
+        self.last_moving = np.full(rows, -1, dtype=np.int64)   # ... moved at or above the settled limit
+        self.steps = 0
+
+
+@dataclass
+class RowLog:
+    """What one run's steps came to (see the module text): row ``b`` of a ``BatchLog``."""
+
+    log: BatchLog
+    b: int
+
+    def error(self) -> dict[str, Any]:
+        """``rms`` and ``max`` (m/s) over every step measured, the ``worst_step`` (0-based; None where no step
+        differs), how many ``steps`` were measured (all, or those before the run was crushed) and how many
+        the reference left ``unsolved``."""
+        log, b = self.log, self.b
+        unsolved = int(log.unsolved[b])
+        if log.values[b] == 0:
+            return {"rms": None, "max": None, "worst_step": None, "steps": 0, "unsolved": unsolved}
+        worst = float(log.worst[b])
+        return {"rms": float(np.sqrt(log.sumsq[b] / log.values[b])), "max": worst,
+                "worst_step": int(log.worst_step[b]) if worst != 0.0 else None, "steps": int(log.measured[b]),
+                "unsolved": unsolved}
+
+    @property
+    def crushed_at(self) -> int | None:
+        return int(self.log.crushed_at[self.b]) if self.log.crushed_at[self.b] >= 0 else None
+
+    def timeline(self) -> dict[str, int | None]:
+        """``steps_to_recover`` and ``steps_to_settle``: None when the last step did not get there."""
+        log, b = self.log, self.b
+        last = log.steps - 1
+        overlap, settle_at = int(log.last_overlap[b]), int(max(log.last_overlap[b], log.last_moving[b]))
+        return {"steps_to_recover": None if overlap == last else overlap + 1,
+                "steps_to_settle": None if settle_at == last else settle_at + 1}
+
+
+def box_speeds(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, radius: np.ndarray) -> np.ndarray:
+    """``sqrt(vx^2 + vy^2 + (radius w)^2)`` per box: a velocity (or a difference of two) as one speed."""
+    return np.sqrt(vx * vx + vy * vy + (radius * w) ** 2)
+
+
+def log_step(log: BatchLog, k: int, before: PlanarState, after: PlanarState, g: np.ndarray, dt: np.ndarray,
+             speculative: np.ndarray, criteria: Criteria) -> None:
+    """Log step ``k`` of every batch row, from ``before`` to ``after`` (see the module text)."""
+    radius = half_diagonal(after)
+    for b in range(after.batch):
+        moving = after.inv_mass[b] > 0.0
+        motion = box_speeds(after.x[b] - before.x[b], after.y[b] - before.y[b], after.angle[b] - before.angle[b],
+                            radius[b])[moving] / dt[b]
+        if max_depth(after, b) > criteria.depth_limit:
+            log.last_overlap[b] = k
+        if not (motion.size == 0 or np.sqrt(np.mean(motion * motion)) < criteria.settle):
+            log.last_moving[b] = k
+        if log.crushed_at[b] < 0 and not after.reach[b] <= criteria.reach:
+            log.crushed_at[b] = k + 1
+        if log.crushed_at[b] >= 0:
+            continue
+        s = before
+        try:
+            found = log.reference.solve(b, s.x[b], s.y[b], s.angle[b], s.vx[b], s.vy[b], s.w[b], s.inv_mass[b],
+                                        s.inv_inertia[b], s.hx[b], s.hy[b], s.friction[b], g[b], dt[b],
+                                        speculative[b])
+        except ReferenceFailure:
+            log.unsolved[b] += 1
+            continue
+        v = found.velocity
+        diff = box_speeds(after.vx[b] - v[:, 0], after.vy[b] - v[:, 1], after.w[b] - v[:, 2], radius[b])[moving]
+        log.sumsq[b] += float(np.sum(diff * diff))
+        log.values[b] += diff.size
+        log.measured[b] += 1
+        top = 0.0
+        for d in diff:
+            if not d <= top:  # a NaN difference is the worst there is
+                top = d
+        if not top <= log.worst[b]:
+            log.worst[b] = top
+            log.worst_step[b] = k
+
+
+class StepLog:
+    """A ``stackx.runner.StepObserver`` keeping a ``RowLog`` per run name."""
+
+    def __init__(self, criteria: Criteria) -> None:
+        self.criteria = criteria
+        self.rows: dict[str, RowLog] = {}
+
+    def batch(self, runs: list[RunSpec]) -> OnStep:
+        log = BatchLog(len(runs), runs[0].scene.size())
+        self.rows.update((r.name, RowLog(log, b)) for b, r in enumerate(runs))
+        g = np.array([r.gravity for r in runs], dtype=np.float64)
+        dt = np.array([r.dt for r in runs], dtype=np.float64)
+        speculative = np.array([float(getattr(r.solver_params, "speculative", 0.0)) for r in runs])
+
+        def on_step(k: int, before: PlanarState, after: PlanarState) -> None:
+            log.steps = k + 1
+            if after.bodies != log.bodies:  # a scene event took a box out: the remembered points name old indices
+                log.bodies = after.bodies
+                log.reference = ReferenceStep(after.batch, after.bodies)
+            log_step(log, k, before, after, g, dt, speculative, self.criteria)
+
+        return on_step

@@ -1,0 +1,81 @@
+"""What the planar solvers share beyond their stages: the model they step, the lab's correction knob, and the
+impulses carried between steps for warm starting."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from stackx.models.planar.monitor import contact_room
+from stackx.models.planar.state import PlanarState
+from stackx.solvers.base import Correction, Solver
+
+
+def sequential_only(correction: Correction | None) -> Correction | None:
+    """Refuse the column's ``global`` stage and ``max_push``: only the lab's sequential stage is carried over
+    to planar boxes, and a knob that would be ignored is an error rather than a silent no-op."""
+    if correction is not None and (correction.stage != "sequential" or correction.max_push is not None):
+        raise ValueError("the planar model has only the sequential stage: leave 'stage' at 'sequential' and "
+                         "'max_push' unset")
+    return correction
+
+
+class PlanarSolver(Solver):
+    """Base of the planar solvers: they step ``PlanarState``s."""
+
+    models = ("planar",)
+
+    def lab_correction(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Per batch row: whether the lab's correction runs, its slop and percent."""
+        on, slop, percent, _, _ = self.corrections()
+        return on, slop, percent
+
+    def remove_box(self, state: PlanarState, box: int) -> None:
+        """Nothing to forget: a solver without memory between steps."""
+
+
+class PlanarMemorySolver(PlanarSolver):
+    """A planar solver that carries each contact point's impulses into the next step (warm start).
+
+    Per batch row: ``keys`` ``(room, 3)``, the ``(A, B, FEATURE)`` of the points of the last step in
+    ``collide``'s order, ``carried`` ``(room, 2)`` their normal and tangent impulses, and ``held`` how many
+    there are. ``room`` is the room the monitors first give a world (8 points a box): a world with more
+    points keeps the first ``room`` of them, and the rest start their next step from zero.
+    """
+
+    def __init__(self, params: list[Any], gravity: np.ndarray, dt: np.ndarray) -> None:
+        super().__init__(params, gravity, dt)
+        self.keys: np.ndarray | None = None
+        self.carried: np.ndarray | None = None
+        self.held: np.ndarray | None = None
+
+    def memory(self, state: PlanarState) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(keys, carried, held)``, empty the first time (or when the state's shape changed)."""
+        room = contact_room(state.bodies)
+        if self.keys is None or self.keys.shape[:2] != (state.batch, room):
+            self.keys = np.zeros((state.batch, room, 3), np.int64)
+            self.carried = np.zeros((state.batch, room, 2))
+            self.held = np.zeros(state.batch, np.int64)
+        assert self.carried is not None and self.held is not None
+        return self.keys, self.carried, self.held
+
+    def remove_box(self, state: PlanarState, box: int) -> None:
+        """Forget the points of box ``box`` and renumber the boxes after it, keeping every other point's
+        impulses (the order by bodies is kept, so the next step still finds them), in a memory sized for one
+        box fewer."""
+        if self.keys is None:
+            return
+        assert self.carried is not None and self.held is not None
+        room = contact_room(state.bodies - 1)
+        keys = np.zeros((state.batch, room, 3), np.int64)
+        carried = np.zeros((state.batch, room, 2))
+        held = np.zeros(state.batch, np.int64)
+        for b in range(state.batch):
+            k, c = self.keys[b, :self.held[b]], self.carried[b, :self.held[b]]
+            keep = (k[:, 0] != box) & (k[:, 1] != box)
+            k, c = k[keep].copy(), c[keep]
+            k[:, :2] -= k[:, :2] > box
+            held[b] = n = min(len(k), room)
+            keys[b, :n], carried[b, :n] = k[:n], c[:n]
+        self.keys, self.carried, self.held = keys, carried, held

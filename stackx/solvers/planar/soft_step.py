@@ -1,0 +1,191 @@
+"""The soft step on planar boxes (Box2D v3): substeps, soft contacts with friction, and a relax pass.
+
+Contacts are found once per step, within ``speculative`` of touching, each point with its anchors on both
+bodies, its normal and tangent effective masses and its separation at the start of the step. Then, ``substeps``
+times with ``h = dt / substeps``:
+
+1. gravity: every movable box gains ``g h``;
+2. warm start: every point applies the impulses it has accumulated so far (carried over from the last step
+   when the same corners touch, matched by bodies and feature);
+3. solve: each manifold's points, normal first then friction; the separation is measured again at every
+   visit from how far each body has moved and turned since the step began (the normal is held), and an
+   overlapping point is a stiff, heavily damped spring of ``contact_hertz`` (twice that against the ground
+   or a static box) with damping ratio ``damping_ratio``; friction is clamped by the point's accumulated
+   normal impulse times its ``mu`` (Coulomb, per point);
+4. integrate positions and angles with the solved velocities;
+5. relax: the same pass without the spring's bias, so the push-out speed does not stay in the boxes.
+
+Restitution is 0. With ``w = 2 pi hertz``, ``z`` the damping ratio and ``h`` the substep the soft
+coefficients are Box2D v3's (``stackx.solvers.soft_step.soft``, shared with the column): the separating
+speed asked per metre of overlap ``w / (2z + h w)``, capped at ``push_out``, the share of the full impulse a
+visit applies, and the share of the accumulated impulse it lets go. The contact frequency is capped at a
+quarter of the substep rate (Box2D v3.0 and v3.1; 3.1.1 lowered it to an eighth).
+
+Published defaults (Box2D v3, ``b2DefaultWorldDef`` and the solver): 4 substeps at 60 Hz, one solve and one
+relax pass per substep, contact hertz 30, damping ratio 10, push-out 3 m/s, speculative distance 4 x the
+linear slop of 0.005 m = 0.02 m. A soft contact carries its load by sinking in: the steady overlap grows
+with the weight above it, which is how a tall stack stays quiet without position iterations.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field
+
+from stackx.kernel import kernel, prange
+from stackx.models.planar.monitor import observe
+from stackx.models.planar.state import PlanarState
+from stackx.registry import solvers
+from stackx.solvers.contacts import speculative_field
+from stackx.solvers.planar.contacts import (A, B, KN, KT, MU, NX, NY, PN, PT, apply_impulse, contact_workspace,
+                                            find_contacts, gravity, integrate_positions, prepare, recall,
+                                            relative_velocity, remember, warm_start)
+from stackx.solvers.planar.base import PlanarMemorySolver
+from stackx.solvers.planar.substep import base_separations, moved, separation, step_start
+from stackx.solvers.soft_step import STATIC_HERTZ, SUBSTEP_HERTZ, soft
+
+
+class PlanarSoftStepParams(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+    substeps: int = Field(4, gt=0, le=10_000,
+                          description="substeps per step, each one solve and one relax pass: more make contacts "
+                                      "stiffer (the hertz cap rises) and piles quieter, at linear cost")
+    contact_hertz: float = Field(30.0, gt=0, allow_inf_nan=False,
+                                 description="stiffness of a contact as a spring frequency (Hz), capped at a "
+                                             "quarter of the substep rate; contacts with a static side use twice "
+                                             "it: higher sinks less under load but needs smaller substeps")
+    damping_ratio: float = Field(10.0, ge=0, allow_inf_nan=False,
+                                 description="damping of the contact spring: high values (10) push out without "
+                                             "bouncing, low ones spring back")
+    push_out: float = Field(3.0, gt=0, allow_inf_nan=False,
+                            description="largest separating speed the spring may ask for (m/s): keeps a deep "
+                                        "overlap from launching boxes, at the cost of a slower recovery")
+    relax: bool = Field(True, description="after positions move, solve once more without bias so the push-out "
+                                          "speed leaves the boxes; off keeps it (boxes bounce off overlap)")
+    warm_start: bool = Field(True, description="start each step from the impulses the same points carried at "
+                                               "the end of the last one: off rebuilds every load from zero, and "
+                                               "a tall stack sinks and sways")
+    speculative: float = speculative_field(0.02)
+
+
+@kernel
+def manifold_end(ids: np.ndarray, start: int, count: int) -> int:
+    """One past the last point of the manifold (the same two bodies) that begins at ``start``."""
+    end = start + 1
+    while end < count and ids[end, A] == ids[start, A] and ids[end, B] == ids[start, B]:
+        end += 1
+    return end
+
+
+@kernel
+def soft_pass(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, inv_mass: np.ndarray, inv_inertia: np.ndarray,
+              ids: np.ndarray, table: np.ndarray, count: int, base: np.ndarray, since: np.ndarray, h: float,
+              use_bias: bool, push_out: float, softness: np.ndarray) -> None:
+    """One pass over the manifolds in table order, each one's points normal first, then friction.
+
+    A point still apart may close its gap within the substep but not more. An overlapping point, with the
+    bias, asks for the spring's separating speed (at most ``push_out``), applies ``mass_scale`` of the full
+    impulse and lets go ``impulse_scale`` of what it holds; without the bias it only stops approach. The
+    normal total stays >= 0 and each point's friction total within ``mu`` times its normal total.
+    ``softness`` holds ``(bias_rate, mass_scale, impulse_scale)`` for two movable bodies (row 0) and for a
+    point with a static side, the ground or a static box (row 1).
+    """
+    start = 0
+    while start < count:
+        end = manifold_end(ids, start, count)
+        a, b = ids[start, A], ids[start, B]
+        row = 1 if a < 0 or inv_mass[a] == 0.0 or inv_mass[b] == 0.0 else 0
+        for k in range(start, end):
+            s = separation(ids, table, base, since, k)
+            target, mass_scale, impulse_scale = 0.0, 1.0, 0.0
+            if s > 0.0:
+                target = -s / h
+            elif use_bias:
+                target = min(-softness[row, 0] * s, push_out)
+                mass_scale, impulse_scale = softness[row, 1], softness[row, 2]
+            nx, ny = table[k, NX], table[k, NY]
+            un = relative_velocity(vx, vy, w, ids, table, k, nx, ny)
+            old = table[k, PN]
+            total = max(old + table[k, KN] * mass_scale * (target - un) - impulse_scale * old, 0.0)
+            apply_impulse(vx, vy, w, inv_mass, inv_inertia, ids, table, k, (total - old) * nx, (total - old) * ny)
+            table[k, PN] = total
+        for k in range(start, end):
+            nx, ny = table[k, NX], table[k, NY]
+            limit = table[k, MU] * table[k, PN]
+            old = table[k, PT]
+            total = old - table[k, KT] * relative_velocity(vx, vy, w, ids, table, k, -ny, nx)
+            total = min(max(total, -limit), limit)
+            apply_impulse(vx, vy, w, inv_mass, inv_inertia, ids, table, k, -(total - old) * ny, (total - old) * nx)
+            table[k, PT] = total
+        start = end
+
+
+@kernel
+def soft_step_advance(x: np.ndarray, y: np.ndarray, angle: np.ndarray, vx: np.ndarray, vy: np.ndarray,
+                      w: np.ndarray, inv_mass: np.ndarray, inv_inertia: np.ndarray, hx: np.ndarray, hy: np.ndarray,
+                      friction: np.ndarray, g: np.ndarray, dt: np.ndarray, substeps: np.ndarray,
+                      hertz: np.ndarray, damping_ratio: np.ndarray, push_out: np.ndarray, relax: np.ndarray,
+                      warm: np.ndarray, speculative: np.ndarray, keys: np.ndarray, carried: np.ndarray,
+                      held: np.ndarray, last: np.ndarray, peak: np.ndarray, reach: np.ndarray, touched: np.ndarray,
+                      launch: np.ndarray, steps: int) -> None:
+    """``steps`` steps of every batch row, in place; ``keys``, ``carried`` and ``held`` carry each row's
+    points and impulses from one step (and one call) to the next."""
+    for b in prange(x.shape[0]):
+        xb, yb, ab, vxb, vyb, wb = x[b], y[b], angle[b], vx[b], vy[b], w[b]  # the row's views, made once
+        im, ii, hxb, hyb, mub = inv_mass[b], inv_inertia[b], hx[b], hy[b], friction[b]
+        n = x.shape[1]
+        h = dt[b] / substeps[b]
+        contact_hertz = min(hertz[b], SUBSTEP_HERTZ / h)
+        softness = np.empty((2, 3))
+        softness[0, 0], softness[0, 1], softness[0, 2] = soft(contact_hertz, damping_ratio[b], h)
+        softness[1, 0], softness[1, 1], softness[1, 2] = soft(STATIC_HERTZ * contact_hertz, damping_ratio[b], h)
+        ids, table = contact_workspace(keys.shape[1])
+        base = np.empty(keys.shape[1])
+        start = np.empty((n, 3))
+        since = np.empty((n, 4))
+        for _ in range(steps):
+            ids, table, count = find_contacts(xb, yb, ab, hxb, hyb, im, speculative[b], ids, table)
+            prepare(xb, yb, im, ii, mub, ids, table, count)
+            if base.shape[0] < count:
+                base = np.empty(ids.shape[0])
+            base_separations(ids, table, count, base)
+            if warm[b]:
+                recall(ids, table, count, keys[b], carried[b], held[b])
+            step_start(xb, yb, ab, start, since)
+            for _ in range(substeps[b]):
+                gravity(vyb, im, g[b], h)
+                warm_start(vxb, vyb, wb, im, ii, ids, table, count)
+                soft_pass(vxb, vyb, wb, im, ii, ids, table, count, base, since, h, True, push_out[b], softness)
+                integrate_positions(xb, yb, ab, vxb, vyb, wb, h)
+                moved(xb, yb, ab, start, since)
+                if relax[b]:
+                    soft_pass(vxb, vyb, wb, im, ii, ids, table, count, base, since, h, False, push_out[b], softness)
+            held[b] = remember(ids, table, count, keys[b], carried[b])
+            observe(xb, yb, ab, hxb, hyb, im, dt[b], last, peak, reach, touched, launch, b)
+
+
+@solvers.register("planar-soft-step")
+class PlanarSoftStep(PlanarMemorySolver):
+    """Box2D v3's substepped soft contacts with friction and relax, on rotating boxes."""
+
+    Params = PlanarSoftStepParams
+
+    def __init__(self, params: list[PlanarSoftStepParams], gravity: np.ndarray, dt: np.ndarray) -> None:
+        super().__init__(params, gravity, dt)
+        self.substeps = self.counts("substeps")
+        self.hertz = self.column("contact_hertz")
+        self.damping_ratio = self.column("damping_ratio")
+        self.push_out = self.column("push_out")
+        self.relax = self.flags("relax")
+        self.warm = self.flags("warm_start")
+        self.speculative = self.column("speculative")
+
+    @classmethod
+    def passes(cls, params: PlanarSoftStepParams) -> int:
+        return params.substeps * (2 if params.relax else 1)
+
+    def advance(self, state: PlanarState, steps: int) -> None:
+        s = state
+        soft_step_advance(s.x, s.y, s.angle, s.vx, s.vy, s.w, s.inv_mass, s.inv_inertia, s.hx, s.hy, s.friction,
+                          self.gravity, self.dt, self.substeps, self.hertz, self.damping_ratio, self.push_out,
+                          self.relax, self.warm, self.speculative, *self.memory(state), *s.monitors(), steps)

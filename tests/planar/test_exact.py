@@ -1,0 +1,73 @@
+"""planar-exact against analytic answers: a box on a ramp sticks below atan(mu) and slides above it at
+g (sin a - mu cos a); a resting pyramid stays put; plain and compiled steps agree to the bit."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from stackx.errors import RunError
+from stackx.kernel import compiled
+from stackx.models.planar import step_problem
+from stackx.models.planar.reference import ReferenceFailure
+from stackx.solvers.planar.exact import PlanarExact, PlanarExactParams
+from tests.planar.hand_states import pyramid, ramp
+
+DT = 1 / 60
+G = 9.8
+
+
+def _exact(rows: int = 1, **params: object) -> PlanarExact:
+    return PlanarExact([PlanarExactParams(**params)] * rows, np.full(rows, -G), np.full(rows, DT))
+
+
+@pytest.mark.parametrize("degrees", [20.0, 35.0])
+def test_a_box_on_a_ramp_sticks_below_atan_mu_and_slides_above_at_the_coulomb_rate(degrees: float) -> None:
+    mu, steps = 0.5, 30  # atan(0.5) = 26.6 degrees
+    a = math.radians(degrees)
+    state = ramp(a, mu)
+    _exact().advance(state, steps)
+    c, s = math.cos(a), math.sin(a)
+    along = state.vx[0, 1] * c + state.vy[0, 1] * s  # up the slope
+    across = -state.vx[0, 1] * s + state.vy[0, 1] * c
+    rate = max(G * (s - mu * c), 0.0)  # down the slope, 0 when friction holds
+    assert along == pytest.approx(-rate * steps * DT, abs=1e-9)
+    assert across == pytest.approx(0.0, abs=1e-9)
+    assert state.w[0, 1] == pytest.approx(0.0, abs=1e-9)
+    assert state.x[0, 0] == 0.0 and state.y[0, 0] == 3.0  # the ramp is static
+
+
+def test_a_resting_pyramid_stays_exactly_where_it_is() -> None:
+    state = pyramid(6, mu=0.5)
+    start = state.copy()
+    _exact().advance(state, 20)
+    for name in ("x", "y", "angle", "vx", "vy", "w"):
+        assert np.abs(getattr(state, name) - getattr(start, name)).max() < 1e-9, name
+
+
+def test_plain_and_compiled_steps_agree_to_the_bit() -> None:
+    out = []
+    for on in (False, True):
+        state = pyramid(3, mu=0.4, jitter=0.1, seed=5)
+        state.vx[0] = np.linspace(-0.5, 0.5, state.bodies)
+        state.y[0] += 0.05 * np.arange(state.bodies)  # a little apart: speculative points, landings
+        with compiled(on):
+            _exact(correction={"slop": 0.005, "percent": 0.4}).advance(state, 8)
+        out.append(state)
+    for name in out[0].FIELDS:
+        assert np.array_equal(getattr(out[0], name), getattr(out[1], name)), name
+
+
+def test_a_step_the_reference_cannot_solve_stops_the_run_naming_step_and_row(monkeypatch) -> None:
+    def fail(*args: object, **kwargs: object) -> None:
+        raise ReferenceFailure("best residual 3e-07 m/s")
+
+    state = pyramid(2)
+    state = state.concat([state, state])
+    solver = _exact(2)
+    solver.advance(state, 2)
+    monkeypatch.setattr(step_problem, "solve", fail)
+    with pytest.raises(RunError, match=r"planar-exact: step 3, batch row 0: best residual 3e-07 m/s"):
+        solver.advance(state, 1)

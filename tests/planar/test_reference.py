@@ -1,0 +1,168 @@
+"""The reference solve against brute force on small problems, and its residual on real scenes' steps.
+
+Brute force: every point is separating, sticking, or sliding one way or the other; for each of the 4^m
+combinations, the linear system that combination sets (written here from the contract, with its own
+Jacobian) is solved by least squares, and the combination is kept when its answer satisfies every
+condition. The reference must land on the velocities of a kept combination.
+"""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+import pytest
+
+from stackx.kernel import compiled
+from stackx.models.planar.problem import ContactProblem, effective_masses, residual, velocities_after
+from stackx.models.planar.reference import ReferenceFailure, project_sweeps, solve
+from stackx.models.planar.step_problem import ReferenceStep, step_problem
+from tests.planar.hand_states import pyramid
+
+TOL = 1e-9
+
+
+def _jacobian(p: ContactProblem) -> np.ndarray:
+    """Rows: normal then tangent of each point; columns vx, vy, w of each body (dense, by the contract)."""
+    m, n = p.points, p.bodies
+    jac = np.zeros((2 * m, 3 * n))
+    for k in range(m):
+        nx, ny = p.normal[k]
+        for row, (dx, dy) in ((2 * k, (nx, ny)), (2 * k + 1, (-ny, nx))):
+            for body, r, sign in ((p.body_a[k], p.ra[k], -1.0), (p.body_b[k], p.rb[k], 1.0)):
+                if body >= 0:
+                    jac[row, 3 * body:3 * body + 3] += sign * np.array([dx, dy, r[0] * dy - r[1] * dx])
+    return jac
+
+
+def brute_force(p: ContactProblem) -> list[np.ndarray]:
+    """The velocities (n, 3) of every mode combination whose linear system has an answer meeting every
+    condition of the contract."""
+    m = p.points
+    jac = _jacobian(p)
+    inv = np.repeat(p.inv_mass, 3)
+    inv[2::3] = p.inv_inertia
+    w = jac @ (inv[:, None] * jac.T)
+    u0 = jac @ p.velocity.reshape(-1)
+    found = []
+    for modes in itertools.product(("separate", "stick", "slide+", "slide-"), repeat=m):
+        a = np.zeros((2 * m, 2 * m))
+        b = np.zeros(2 * m)
+        for k, mode in enumerate(modes):
+            n_row, t_row = 2 * k, 2 * k + 1
+            if mode == "separate":
+                a[n_row, n_row] = a[t_row, t_row] = 1.0
+                continue
+            a[n_row], b[n_row] = w[n_row], p.target[k] - u0[n_row]
+            if mode == "stick":
+                a[t_row], b[t_row] = w[t_row], -u0[t_row]
+            else:
+                a[t_row, t_row] = 1.0
+                a[t_row, n_row] = -p.friction[k] if mode == "slide+" else p.friction[k]
+        imp = np.linalg.lstsq(a, b, rcond=None)[0]
+        if np.abs(a @ imp - b).max() > TOL:
+            continue  # this combination's equations have no answer
+        u = u0 + w @ imp
+        ok = True
+        for k, mode in enumerate(modes):
+            pn, pt, un, ut = imp[2 * k], imp[2 * k + 1], u[2 * k], u[2 * k + 1]
+            bound = p.friction[k] * pn
+            ok &= {"separate": un - p.target[k] >= -TOL,
+                   "stick": pn >= -TOL and abs(pt) <= bound + TOL,
+                   "slide+": pn >= -TOL and ut <= TOL,
+                   "slide-": pn >= -TOL and ut >= -TOL}[mode]
+        if ok:
+            found.append(p.velocity + (inv * (jac.T @ imp)).reshape(-1, 3))
+    return found
+
+
+def random_problem(rng: np.random.Generator, points: int) -> ContactProblem:
+    """Two movable boxes and a static one over the ground, ``points`` random points between them: normals
+    near upright, arms within a box, velocities, frictions and targets of a step's size."""
+    inv_mass = np.array([rng.uniform(0.2, 2.0), rng.uniform(0.2, 2.0), 0.0])
+    inv_inertia = np.array([inv_mass[0] * rng.uniform(2.0, 12.0), inv_mass[1] * rng.uniform(2.0, 12.0), 0.0])
+    velocity = np.zeros((3, 3))
+    velocity[:2] = rng.normal(0.0, 0.5, (2, 3))
+    pairs = [(-1, 0), (0, 1), (-1, 1), (2, 0), (2, 1)]
+    chosen = [pairs[i] for i in rng.integers(0, len(pairs), points)]
+    angle = rng.uniform(np.pi / 2 - 0.6, np.pi / 2 + 0.6, points)
+    normal = np.stack([np.cos(angle), np.sin(angle)], axis=1)
+    target = np.where(rng.uniform(size=points) < 0.25, -rng.uniform(0.0, 0.5, points), 0.0)
+    return ContactProblem(inv_mass, inv_inertia, velocity, np.array([a for a, _ in chosen]),
+                          np.array([b for _, b in chosen]), normal, rng.uniform(-0.5, 0.5, (points, 2)),
+                          rng.uniform(-0.5, 0.5, (points, 2)), rng.uniform(0.0, 1.0, points), target)
+
+
+@pytest.mark.parametrize("points", [1, 2, 3, 4])
+def test_the_reference_lands_on_a_brute_force_answer(points: int) -> None:
+    rng = np.random.default_rng(100 + points)
+    for _ in range(12):
+        p = random_problem(rng, points)
+        answers = brute_force(p)
+        assert answers, "brute force found no answer"
+        sol = solve(p)
+        assert sol.residual < 1e-10
+        assert residual(p, sol.pn, sol.pt) < 1e-10  # recomputed from the impulses alone
+        assert min(np.abs(sol.velocity - v).max() for v in answers) < 1e-9
+
+
+def test_a_box_flat_on_the_ground_under_a_sideways_push_against_brute_force() -> None:
+    """Two points under one box: four conditions for three velocities, the impulses not unique; sliding
+    (vx = 2 m/s) and sticking (vx = 0.05 m/s, mu g dt = 0.08 m/s) both found."""
+    for vx in (2.0, 0.05):
+        p = ContactProblem(np.array([1.0]), np.array([6.0]), np.array([[vx, -9.8 / 60, 0.0]]), np.array([-1, -1]),
+                           np.array([0, 0]), np.array([[0.0, 1.0], [0.0, 1.0]]), np.zeros((2, 2)),
+                           np.array([[-0.5, -0.5], [0.5, -0.5]]), np.array([0.5, 0.5]), np.zeros(2))
+        answers = brute_force(p)
+        sol = solve(p)
+        assert sol.residual < 1e-10
+        assert min(np.abs(sol.velocity - v).max() for v in answers) < 1e-9
+        expected = max(vx - 0.5 * 9.8 / 60, 0.0)  # Coulomb: slows by mu g dt, or stops
+        assert sol.velocity[0].tolist() == pytest.approx([expected, 0.0, 0.0], abs=1e-9)
+
+
+def test_a_resting_pyramid_is_held_exactly_and_a_jittered_one_is_solved_to_1e_10() -> None:
+    state = pyramid(10)
+    p = step_problem(state, 0, -9.8, 1 / 60, 0.02)
+    sol = solve(p)
+    assert residual(p, sol.pn, sol.pt) < 1e-10
+    assert np.abs(sol.velocity).max() < 1e-9  # every box rests: nothing may move
+    assert sol.pn[p.body_a == -1].sum() == pytest.approx(55 * 9.8 / 60, rel=1e-9)  # the ground bears all 55
+    shaken = pyramid(10, jitter=0.05, seed=3)
+    shaken.vx[0] = np.random.default_rng(4).normal(0.0, 0.3, shaken.bodies)
+    reference = ReferenceStep(1, shaken.bodies)
+    s = shaken
+    for _ in range(3):  # a few steps, each from the last one's impulses, as the bench solves them
+        sol = reference.solve(0, s.x[0], s.y[0], s.angle[0], s.vx[0], s.vy[0], s.w[0], s.inv_mass[0],
+                              s.inv_inertia[0], s.hx[0], s.hy[0], s.friction[0], -9.8, 1 / 60, 0.02)
+        assert residual(reference.problem, sol.pn, sol.pt) < 1e-10
+        s.vx[0], s.vy[0], s.w[0] = sol.velocity.T
+        for name, rate in (("x", "vx"), ("y", "vy"), ("angle", "w")):
+            getattr(s, name)[0] += getattr(s, rate)[0] / 60
+    assert sol.sweeps == 0 or sol.rounds < 40  # the later steps start from the last impulses
+
+
+def test_a_solve_that_does_not_get_there_says_so() -> None:
+    p = step_problem(pyramid(6, jitter=0.05, seed=1), 0, -9.8, 1 / 60, 0.02)
+    with pytest.raises(ReferenceFailure, match=r"not solved to 1e-10 m/s in 1 Newton rounds"):
+        solve(p, sweeps=0, rounds=1)
+    stuck = ContactProblem(np.zeros(1), np.zeros(1), np.zeros((1, 3)), np.array([-1]), np.array([0]),
+                           np.array([[0.0, 1.0]]), np.zeros((1, 2)), np.zeros((1, 2)), np.ones(1), np.ones(1))
+    with pytest.raises(ReferenceFailure, match="two immovable bodies"):
+        solve(stuck)
+
+
+def test_the_sweeps_run_plain_and_compiled_to_the_same_bits() -> None:
+    p = step_problem(pyramid(5, jitter=0.05, seed=2), 0, -9.8, 1 / 60, 0.02)
+    kn, kt = effective_masses(p)
+    out = []
+    for on in (False, True):
+        pn, pt = np.zeros(p.points), np.zeros(p.points)
+        v = velocities_after(p, pn, pt)
+        with compiled(on):
+            project_sweeps(p.body_a, p.body_b, p.normal, p.ra, p.rb, p.friction, p.target, p.inv_mass,
+                           p.inv_inertia, kn, kt, v, pn, pt, 5)
+        out.append((pn, pt, v))
+    for a, b in zip(*out):
+        assert np.array_equal(a, b)
+    assert out[0][0].sum() > 0.0
