@@ -25,10 +25,11 @@ Functions, in the order a step uses them:
 - ``recall(...)`` / ``remember(...)``: warm start: the impulses of the last step's points found again by
   ``(A, B, FEATURE)``, and the impulses of this step kept for the next;
 - ``warm_start(...)``: apply the carried impulses before the first iteration;
-- ``friction_visit``, ``normal_visit``, ``block_normal``: one point's friction or normal total, or the two
-  normal totals of a two-point manifold solved together (Box2D 2.x's block solver), with accumulated clamping:
-  the friction total stays in ``[-mu pn, mu pn]`` of the current normal total, the normal total >= 0;
-- ``accumulated_iteration(...)``: one Gauss-Seidel pass over the manifolds, friction then normal;
+- ``normal_visit``, ``block_normal``, ``friction_visit``: one point's normal total, the two normal totals of
+  a two-point manifold solved together (Box2D 2.x's block solver), or one point's friction total, with
+  accumulated clamping: the normal total >= 0, the friction total within ``[-mu pn, mu pn]``;
+- ``accumulated_iteration(...)``: one Gauss-Seidel pass over the manifolds, normals then friction, each
+  normal step optionally over-relaxed;
 - ``solve_velocities(...)``: the velocity half of a step with accumulated impulses, the stages above in
   order: gravity, contacts within ``speculative``, targets, warm start (or none), iterations, remember;
 - ``integrate_positions(...)``: positions and angles move with the velocities over ``dt``;
@@ -183,13 +184,12 @@ def apply_impulse(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, inv_mass: np.nd
 
 
 @kernel
-def set_targets(table: np.ndarray, count: int, dt: float, beta: float, slop: float, max_push: float) -> None:
+def set_targets(table: np.ndarray, count: int, dt: float) -> None:
     """The slowest normal velocity each point accepts: ``depth/dt`` for a point still apart (a speculative
-    point may close its gap within the step, no more); for a touching one 0 (no approach), or with ``beta``
-    > 0 the push-out ``beta/dt * max(depth - slop, 0)``, at most ``max_push`` (a Baumgarte bias)."""
+    point may close its gap within the step, no more), 0 for a touching one (no approach)."""
     for k in range(count):
         d = table[k, DEPTH]
-        table[k, TARGET] = d / dt if d < 0.0 else min(beta / dt * max(d - slop, 0.0), max_push)
+        table[k, TARGET] = d / dt if d < 0.0 else 0.0
 
 
 @kernel
@@ -250,12 +250,13 @@ def friction_visit(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, inv_mass: np.n
 
 @kernel
 def normal_visit(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, inv_mass: np.ndarray, inv_inertia: np.ndarray,
-                 ids: np.ndarray, table: np.ndarray, k: int) -> None:
-    """Point ``k``'s normal total moved to meet its target, kept >= 0: the increment may be negative (an
-    earlier visit pushed too hard), only the total may not pull."""
+                 ids: np.ndarray, table: np.ndarray, k: int, relaxation: float) -> None:
+    """Point ``k``'s normal total moved to meet its target (times ``relaxation``), kept >= 0: the increment
+    may be negative (an earlier visit pushed too hard), only the total may not pull."""
     nx, ny = table[k, NX], table[k, NY]
     old = table[k, PN]
-    total = max(old + table[k, KN] * (table[k, TARGET] - relative_velocity(vx, vy, w, ids, table, k, nx, ny)), 0.0)
+    gap = table[k, TARGET] - relative_velocity(vx, vy, w, ids, table, k, nx, ny)
+    total = max(old + relaxation * table[k, KN] * gap, 0.0)
     if total != old:
         step = total - old
         apply_impulse(vx, vy, w, inv_mass, inv_inertia, ids, table, k, step * nx, step * ny)
@@ -264,14 +265,15 @@ def normal_visit(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, inv_mass: np.nda
 
 @kernel
 def block_normal(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, inv_mass: np.ndarray, inv_inertia: np.ndarray,
-                 ids: np.ndarray, table: np.ndarray, k: int) -> bool:
+                 ids: np.ndarray, table: np.ndarray, k: int, relaxation: float) -> bool:
     """The normal totals of points ``k`` and ``k + 1`` (one manifold: same bodies, same normal) solved together.
 
     The two points' complementarity problem (``x >= 0``, ``K x + b >= 0``, ``x . (K x + b) = 0`` with ``K``
     the 2 x 2 normal mass matrix) has four candidate answers: both pressing, only the first, only the second,
     neither; the first that satisfies every condition is it, and the change from the current totals is applied.
     A box resting flat then has its load shared by both corners as the exact solve shares it, where visiting
-    the corners one after the other lets the first take too much and the box rock. Returns False (nothing
+    the corners one after the other lets the first take too much and the box rock. With ``relaxation`` w the
+    totals move ``w`` times the way to that answer (kept >= 0). Returns False (nothing
     done) when ``K`` is too ill-conditioned to invert (the two points nearly on one line through the bodies'
     lever arms) or no case fits in rounding; the caller then visits the points one by one.
     """
@@ -280,8 +282,9 @@ def block_normal(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, inv_mass: np.nda
     a, b = ids[k, A], ids[k, B]
     ima, iia = (inv_mass[a], inv_inertia[a]) if a >= 0 else (0.0, 0.0)
     k11, k22 = 1.0 / table[k, KN], 1.0 / table[j, KN]
-    k12 = (ima + inv_mass[b] + iia * (table[k, RAX] * ny - table[k, RAY] * nx) * (table[j, RAX] * ny - table[j, RAY] * nx)
-           + inv_inertia[b] * (table[k, RBX] * ny - table[k, RBY] * nx) * (table[j, RBX] * ny - table[j, RBY] * nx))
+    ca1, ca2 = table[k, RAX] * ny - table[k, RAY] * nx, table[j, RAX] * ny - table[j, RAY] * nx  # r x n
+    cb1, cb2 = table[k, RBX] * ny - table[k, RBY] * nx, table[j, RBX] * ny - table[j, RBY] * nx
+    k12 = ima + inv_mass[b] + iia * ca1 * ca2 + inv_inertia[b] * cb1 * cb2
     det = k11 * k22 - k12 * k12
     if not k11 * k11 < BLOCK_CONDITION * det:
         return False
@@ -298,6 +301,7 @@ def block_normal(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, inv_mass: np.nda
                 x1, x2 = 0.0, 0.0
                 if not (b1 >= 0.0 and b2 >= 0.0):
                     return False
+    x1, x2 = max(a1 + relaxation * (x1 - a1), 0.0), max(a2 + relaxation * (x2 - a2), 0.0)
     d1, d2 = x1 - a1, x2 - a2
     apply_impulse(vx, vy, w, inv_mass, inv_inertia, ids, table, k, d1 * nx, d1 * ny)
     apply_impulse(vx, vy, w, inv_mass, inv_inertia, ids, table, j, d2 * nx, d2 * ny)
@@ -306,68 +310,54 @@ def block_normal(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, inv_mass: np.nda
 
 
 @kernel
-def manifold_visit(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, inv_mass: np.ndarray, inv_inertia: np.ndarray,
-                   ids: np.ndarray, table: np.ndarray, k: int, size: int, block: bool) -> None:
-    """The ``size`` (1 or 2) points from ``k`` of one manifold: friction of each point first, bounded by the
-    normal totals so far, then the normals, both at once (``block_normal``) when ``block`` and there are two,
-    else point by point."""
-    for i in range(k, k + size):
-        friction_visit(vx, vy, w, inv_mass, inv_inertia, ids, table, i)
-    if not (block and size == 2 and block_normal(vx, vy, w, inv_mass, inv_inertia, ids, table, k)):
-        for i in range(k, k + size):
-            normal_visit(vx, vy, w, inv_mass, inv_inertia, ids, table, i)
-
-
-@kernel
 def accumulated_iteration(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, inv_mass: np.ndarray,
                           inv_inertia: np.ndarray, ids: np.ndarray, table: np.ndarray, count: int,
-                          block: bool, backward: bool) -> None:
-    """One Gauss-Seidel pass over the manifolds (the one or two consecutive points of the same two bodies)
-    with accumulated clamping, in table order or, ``backward``, from the last manifold to the first.
+                          block: bool, relaxation: float) -> None:
+    """One Gauss-Seidel pass over the manifolds in table order (a manifold: the one or two consecutive points
+    of the same two bodies) with accumulated clamping: the normals first, both at once (``block_normal``) when
+    ``block`` and there are two, else point by point; then each point's friction, bounded by the normal total
+    just found (Box2D v3's order), so after every visit ``pn >= 0`` and ``|pt| <= mu pn`` hold.
 
-    A pass in table order (the ground's points first, then pairs by index: bottom-up in a stack) carries a
-    push up a pile in one pass but a load down it by only one contact; a backward pass does the opposite, so
-    alternating them reaches every contact of a tall stack in two passes either way.
+    ``relaxation`` w scales each normal step (successive over-relaxation, 0 < w < 2). Plain Gauss-Seidel
+    (w = 1) moves a load one contact per pass against the sweep, and the bending of a tall stack, the slowest
+    of its modes, needs passes growing with the square of its height; w near 2 shortens that to about the
+    height. The price: a lone contact's error then shrinks only by ``|1 - w|`` per pass instead of vanishing
+    in one, so a fresh impact is resolved over more passes (warm starting carries the rest into the next step).
     """
-    if backward:
-        k = count - 1
-        while k >= 0:
-            size = 2 if k >= 1 and ids[k - 1, A] == ids[k, A] and ids[k - 1, B] == ids[k, B] else 1
-            manifold_visit(vx, vy, w, inv_mass, inv_inertia, ids, table, k - size + 1, size, block)
-            k -= size
-    else:
-        k = 0
-        while k < count:
-            size = 2 if k + 1 < count and ids[k + 1, A] == ids[k, A] and ids[k + 1, B] == ids[k, B] else 1
-            manifold_visit(vx, vy, w, inv_mass, inv_inertia, ids, table, k, size, block)
-            k += size
+    k = 0
+    while k < count:
+        size = 2 if k + 1 < count and ids[k + 1, A] == ids[k, A] and ids[k + 1, B] == ids[k, B] else 1
+        if not (block and size == 2 and block_normal(vx, vy, w, inv_mass, inv_inertia, ids, table, k,
+                                                     relaxation)):
+            for i in range(k, k + size):
+                normal_visit(vx, vy, w, inv_mass, inv_inertia, ids, table, i, relaxation)
+        for i in range(k, k + size):
+            friction_visit(vx, vy, w, inv_mass, inv_inertia, ids, table, i)
+        k += size
 
 
 @kernel
 def solve_velocities(x: np.ndarray, y: np.ndarray, angle: np.ndarray, vx: np.ndarray, vy: np.ndarray,
                      w: np.ndarray, inv_mass: np.ndarray, inv_inertia: np.ndarray, hx: np.ndarray, hy: np.ndarray,
                      friction: np.ndarray, g: float, dt: float, speculative: float, carry: bool, iterations: int,
-                     block: bool, alternate: bool, beta: float, slop: float, max_push: float, relax: int, ids: np.ndarray, table: np.ndarray, keys: np.ndarray, carried: np.ndarray,
+                     block: bool, relaxation: float, ids: np.ndarray, table: np.ndarray, keys: np.ndarray,
+                     carried: np.ndarray,
                      held: int) -> tuple[np.ndarray, np.ndarray, int, int]:
     """The velocity half of a step with accumulated impulses: gravity; the points within ``speculative`` of
     touching with their anchors, masses and targets; the last step's impulses found again and applied
     (``carry``; otherwise every point starts from zero); ``iterations`` passes (two-point manifolds' normals
     together when ``block``); this step's impulses kept.
+    ``relaxation`` scales every normal step (1: plain Gauss-Seidel; see ``accumulated_iteration``).
     Returns the table (maybe grown), its count and how many points the memory now holds."""
     gravity(vy, inv_mass, g, dt)
     ids, table, count = find_contacts(x, y, angle, hx, hy, inv_mass, speculative, ids, table)
     prepare(x, y, inv_mass, inv_inertia, friction, ids, table, count)
-    set_targets(table, count, dt, beta, slop, max_push)
+    set_targets(table, count, dt)
     if carry:
         recall(ids, table, count, keys, carried, held)
         warm_start(vx, vy, w, inv_mass, inv_inertia, ids, table, count)
-    for i in range(iterations):
-        accumulated_iteration(vx, vy, w, inv_mass, inv_inertia, ids, table, count, block, alternate and i % 2 == 1)
-    if relax > 0:
-        set_targets(table, count, dt, 0.0, 0.0, 0.0)
-        for i in range(relax):
-            accumulated_iteration(vx, vy, w, inv_mass, inv_inertia, ids, table, count, block,
-                                  alternate and i % 2 == 1)
+    for _ in range(iterations):
+        accumulated_iteration(vx, vy, w, inv_mass, inv_inertia, ids, table, count, block, relaxation)
     return ids, table, count, remember(ids, table, count, keys, carried)
 
 

@@ -77,7 +77,7 @@ def planar_ngs_advance(x: np.ndarray, y: np.ndarray, angle: np.ndarray, vx: np.n
         for _ in range(steps):
             ids, table, count, held[b] = solve_velocities(
                 xb, yb, ab, vxb, vyb, wb, im, ii, hxb, hyb, mub, g[b], dt[b], speculative[b], carry[b],
-                iterations[b], block[b], False, 0.0, 0.0, 0.0, 0, ids, table, keys[b], carried[b], held[b])
+                iterations[b], block[b], 1.0, ids, table, keys[b], carried[b], held[b])
             anchor_locals(xb, yb, ab, ids, table, count)
             integrate_positions(xb, yb, ab, vxb, vyb, wb, dt[b])
             for _ in range(position_iterations[b]):

@@ -1,0 +1,150 @@
+"""The shared planar stages against independent computations: matrices, brute force, geometry by hand."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from stackx.models.planar.state import PlanarState
+from stackx.solvers.planar.contacts import (A, B, DEPTH, FEATURE, KN, KT, MU, NX, NY, PN, PT, PX, PY, TARGET,
+                                            anchor_locals, apply_impulse, block_normal, contact_workspace,
+                                            correct_positions, find_contacts, normal_visit, prepare, recall,
+                                            relative_velocity, remember, separation_push)
+from tests.planar.worlds import lowest_corner, world
+
+
+def _table(s: PlanarState, margin: float = 0.0) -> tuple[np.ndarray, np.ndarray, int]:
+    ids, table = contact_workspace(2)  # too small on purpose: the table must grow
+    ids, table, count = find_contacts(s.x[0], s.y[0], s.angle[0], s.hx[0], s.hy[0], s.inv_mass[0], margin, ids,
+                                      table)
+    prepare(s.x[0], s.y[0], s.inv_mass[0], s.inv_inertia[0], s.friction[0], ids, table, count)
+    return ids, table, count
+
+
+def _jacobian(s: PlanarState, ids: np.ndarray, table: np.ndarray, k: int, dx: float, dy: float) -> np.ndarray:
+    """The row of J (bodies x (vx, vy, w)) of point k along d, from the point and the centres directly."""
+    j = np.zeros(3 * s.bodies)
+    px, py = table[k, PX], table[k, PY]
+    for body, sign in ((ids[k, B], 1.0), (ids[k, A], -1.0)):
+        if body >= 0:
+            rx, ry = px - s.x[0, body], py - s.y[0, body]
+            j[3 * body:3 * body + 3] = sign * np.array([dx, dy, rx * dy - ry * dx])
+    return j
+
+
+def _inverse_mass(s: PlanarState) -> np.ndarray:
+    return np.diag(np.ravel(np.column_stack([s.inv_mass[0], s.inv_mass[0], s.inv_inertia[0]])))
+
+
+SCENE = [{"x": 0.0, "y": 0.45, "angle": 0.1, "mu": 0.3}, {"x": 0.35, "y": 1.4, "angle": -0.2, "hx": 0.7, "mu": 0.8},
+         {"x": 1.3, "y": 0.5, "hy": 0.6, "density": 3.0, "mu": 0.5}]
+
+
+def test_effective_masses_and_friction_match_the_contact_jacobian() -> None:
+    s = world(SCENE)
+    ids, table, count = _table(s)
+    assert count >= 4 and ids.shape[0] >= count
+    w = _inverse_mass(s)
+    for k in range(count):
+        nx, ny = table[k, NX], table[k, NY]
+        jn, jt = _jacobian(s, ids, table, k, nx, ny), _jacobian(s, ids, table, k, -ny, nx)
+        assert table[k, KN] == pytest.approx(1.0 / (jn @ w @ jn), rel=1e-12)
+        assert table[k, KT] == pytest.approx(1.0 / (jt @ w @ jt), rel=1e-12)
+        a, b = ids[k, A], ids[k, B]
+        mu = s.friction[0, b] if a < 0 else math.sqrt(s.friction[0, a] * s.friction[0, b])
+        assert table[k, MU] == pytest.approx(mu, rel=1e-15)
+
+
+def test_an_impulse_changes_velocities_by_the_inverse_mass_and_the_point_velocity_by_jmj() -> None:
+    s = world(SCENE)
+    rng = np.random.default_rng(3)
+    s.vx[0], s.vy[0], s.w[0] = rng.normal(size=(3, s.bodies))
+    ids, table, count = _table(s)
+    w = _inverse_mass(s)
+    for k in range(count):
+        before = np.ravel(np.column_stack([s.vx[0], s.vy[0], s.w[0]]))
+        nx, ny = table[k, NX], table[k, NY]
+        jn, jt = _jacobian(s, ids, table, k, nx, ny), _jacobian(s, ids, table, k, -ny, nx)
+        assert relative_velocity(s.vx[0], s.vy[0], s.w[0], ids, table, k, nx, ny) == pytest.approx(jn @ before)
+        pn, pt = 0.7, -0.3
+        apply_impulse(s.vx[0], s.vy[0], s.w[0], s.inv_mass[0], s.inv_inertia[0], ids, table, k,
+                      pn * nx - pt * ny, pn * ny + pt * nx)
+        after = np.ravel(np.column_stack([s.vx[0], s.vy[0], s.w[0]]))
+        assert after == pytest.approx(before + w @ (jn * pn + jt * pt), abs=1e-12)
+
+
+def test_the_block_solve_of_a_two_point_manifold_is_the_limit_of_point_by_point_passes() -> None:
+    # a box tilted onto a wider one: two points, unequal lever arms; the target asks one to separate
+    for vy, w0, target in ((-2.0, 0.0, 0.0), (-1.0, 3.0, 0.0), (-1.0, -4.0, 0.5), (0.5, 0.2, 0.0)):
+        s = world([{"x": 0.0, "y": 0.5, "hx": 2.0}, {"x": 0.6, "y": 1.49, "vy": vy, "w": w0}])
+        ids, table, count = _table(s)
+        pair = [k for k in range(count) if ids[k, A] == 0]
+        assert len(pair) == 2
+        table[pair[1], TARGET] = target
+        block = s.copy()
+        t_block = table.copy()
+        assert block_normal(block.vx[0], block.vy[0], block.w[0], s.inv_mass[0], s.inv_inertia[0], ids, t_block,
+                            pair[0], 1.0)
+        for _ in range(20000):
+            for k in pair:
+                normal_visit(s.vx[0], s.vy[0], s.w[0], s.inv_mass[0], s.inv_inertia[0], ids, table, k, 1.0)
+        assert t_block[pair, PN] == pytest.approx(table[pair, PN], abs=1e-9)
+        assert block.w[0] == pytest.approx(s.w[0], abs=1e-9)
+
+
+def test_the_lab_correction_pushes_each_point_after_the_pushes_before_it() -> None:
+    s = world([{"x": 0.0, "y": 0.45}])  # sunk 0.05 flat: two ground points
+    ids, table, count = _table(s)
+    slop, percent = 0.01, 0.2
+    first = percent * (0.05 - slop)
+    second = percent * (0.05 - first - slop)  # the second point sees what the first already undid
+    correct_positions(s.x[0], s.y[0], s.inv_mass[0], ids, table, count, slop, percent, np.zeros((1, 2)))
+    assert count == 2
+    assert s.y[0, 0] == pytest.approx(0.45 + first + second, abs=1e-15)
+    assert s.x[0, 0] == 0.0 and s.angle[0, 0] == 0.0
+
+
+def test_memory_finds_each_point_by_its_bodies_and_feature() -> None:
+    s = world(SCENE)
+    ids, table, count = _table(s)
+    table[:count, PN] = np.arange(count) + 1.0
+    table[:count, PT] = -np.arange(count) - 1.0
+    keys, carried = np.zeros((64, 3), np.int64), np.zeros((64, 2))
+    held = remember(ids, table, count, keys, carried)
+    assert held == count
+    drop = 1  # forget one point: it must come back as 0, the others unchanged
+    keys = np.delete(keys, drop, axis=0)
+    carried = np.delete(carried, drop, axis=0)
+    table[:count, PN] = table[:count, PT] = 0.0
+    recall(ids, table, count, keys, carried, held - 1)
+    memory = {tuple(keys[i]): tuple(carried[i]) for i in range(held - 1)}
+    for k in range(count):
+        key = (ids[k, A], ids[k, B], ids[k, FEATURE])
+        assert (table[k, PN], table[k, PT]) == memory.get(key, (0.0, 0.0))
+    assert table[drop, PN] == 0.0 and table[0, PN] == 1.0
+
+
+def test_the_position_pass_measures_the_depth_where_the_box_has_turned_to() -> None:
+    s = world([{"x": 0.0, "y": 0.49, "angle": 0.0}])
+    ids, table, count = _table(s, margin=0.05)
+    anchor_locals(s.x[0], s.y[0], s.angle[0], ids, table, count)
+    s.x[0, 0], s.y[0, 0], s.angle[0, 0] = 0.3, 0.47, 0.04  # moved and turned after the contacts were found
+    deepest = separation_push(s.x[0], s.y[0], s.angle[0], s.inv_mass[0], s.inv_inertia[0], ids, table, count,
+                              1.0, 0.2, 0.2)  # slop 1 m: measure only, push nothing
+    assert deepest == pytest.approx(-lowest_corner(0.3, 0.47, 0.04, 0.5, 0.5), abs=1e-12)
+    assert (s.x[0, 0], s.y[0, 0], s.angle[0, 0]) == (0.3, 0.47, 0.04)
+    for _ in range(30):
+        deepest = separation_push(s.x[0], s.y[0], s.angle[0], s.inv_mass[0], s.inv_inertia[0], ids, table,
+                                  count, 0.0, 1.0, 0.2)
+    assert -lowest_corner(s.x[0, 0], s.y[0, 0], s.angle[0, 0], 0.5, 0.5) == pytest.approx(0.0, abs=1e-9)
+    assert abs(s.angle[0, 0]) < 0.04  # the deeper corner was pushed out, turning the box back
+
+
+def test_a_point_records_its_depth_and_the_normal_of_its_face() -> None:
+    s = world([{"x": 0.0, "y": 0.45}])
+    ids, table, count = _table(s)
+    assert [(ids[k, A], table[k, NX], table[k, NY], table[k, DEPTH]) for k in range(count)] == \
+        [(-1, 0.0, 1.0, pytest.approx(0.05, abs=1e-15))] * 2
+    assert table[:count, PN].tolist() == [0.0, 0.0] and table[:count, PT].tolist() == [0.0, 0.0]
