@@ -265,3 +265,11 @@ def test_the_bench_series_follow_the_pile_top_depth_and_drift(tmp_path: Path) ->
     flat = dataclasses.replace(rec, series=dataclasses.replace(rec.series, drift_x=None, drift_angle=None))
     short = png_header(trajectories_png("lean", [flat], 0.02, None, (0.05, 0.05)))  # type: ignore[arg-type]
     assert (tall.width, tall.height, short.width, short.height) == (1150, 640, 1150, 350)
+
+
+def test_planar_solvers_have_their_counterparts_hue_darker_and_colours_of_their_own() -> None:
+    from stackx.bench.palette import BUILT_IN, OTHERS, colour
+
+    assert colour("planar-pgs") == "#801718"  # the lab solver's #d62728, each channel x 0.6 rounded down
+    planar = {colour(f"planar-{name}") for name in BUILT_IN}
+    assert len(planar) == len(BUILT_IN) and not planar & (set(BUILT_IN.values()) | set(OTHERS))
