@@ -82,16 +82,17 @@ def column_reader(state: Any) -> Figures | None:
 
 def planar_reader(runs: list[RunSpec]) -> Reader:
     """The figures of a planar batch whose rows are ``runs``: each row's scene says which box is the pile's
-    top (``rest_top``), which boxes should rest (``rests``) and where they started (``build``)."""
+    top (``rest_top``), which boxes should rest (``rests``) and where they started (``build``); a scene that
+    does not say gets the highest box and no drift."""
     from stackx.models.planar import figures
 
     scenes = [r.scene for r in runs]
     built = {id(s): s.build() for s in scenes}
     start = runs[0].model.concat([built[id(s)] for s in scenes])
-    top = np.array([(s.rest_top() or (-1,))[0] for s in scenes])
+    top = np.array([(getattr(s, "rest_top", lambda: None)() or (-1,))[0] for s in scenes])
     rests = np.zeros(start.x.shape, dtype=bool)
-    for b, scene in enumerate(scenes):
-        rests[b, scene.rests()] = True
+    for b, scene in enumerate(scenes):  # a scene plugin of another author may not say which boxes rest
+        rests[b, getattr(scene, "rests", list)()] = True
     placed = bool(rests.any())
 
     def read(state: Any) -> Figures:
