@@ -154,13 +154,16 @@ def write(spec: ExperimentSpec, result: Result, out: str | Path) -> list[Path]:
 
 
 def picture(result: Result, run: str, step: int) -> bytes:
-    """The column of ``run`` before ``step`` (a recorded step), drawn as the lab's stack picture (PNG bytes)."""
-    from stackx.render.style import Style, draw_column
+    """The world of ``run`` before ``step`` (a recorded step), drawn as the stack picture is with the default
+    style (PNG bytes): the column by the lab's rules, a planar world fitted to the picture."""
+    from stackx.render.draw import framed, picture as draw
+    from stackx.render.style import Style
 
     experiment_run = result.experiment.run(run)
     if step not in experiment_run.frames:
         raise ConfigError(f"step {step} of run {run!r} was not recorded; pass it in run(..., steps=...)")
-    return draw_column(experiment_run.frames[step], Style()).png_bytes()
+    state = experiment_run.frames[step]
+    return draw(state, framed([state], Style())).png_bytes()
 
 
 def bench(configs: Iterable[str | Path], solvers: Iterable[str] | None = None, out: str | Path | None = None,

@@ -430,8 +430,10 @@ def build(src: Source) -> ExperimentSpec:
             raise src.error(prefix, f"{output.plugin_name!r} needs a simulation: add scene, solver and steps")
         other = next((r for r in runs if output.models is not None and r.scene.model not in output.models), None)
         if other is not None:
-            raise src.error(prefix + (_kind(output),), f"{output.plugin_name!r} draws {', '.join(output.models or ())}"
-                            f" scenes, not {other.scene.model!r} (run {other.name!r})")
+            drawn = list(output.models or ())
+            names = " and ".join([", ".join(drawn[:-1]), drawn[-1]] if len(drawn) > 1 else drawn)
+            raise src.error(prefix + (_kind(output),), f"{output.plugin_name!r} draws {names} scenes, not "
+                            f"{other.scene.model!r} (run {other.name!r})")
         output.check(spec, lambda path, msg, prefix=prefix: src.error(prefix + path, msg))
         confine(output, lambda path, msg, prefix=prefix: src.error(prefix + path, msg))
         for name in output.files():

@@ -1,4 +1,5 @@
-"""The lab's drawing toolbox: an RGB canvas with lines and filled rectangles, saved as PNG.
+"""The lab's drawing toolbox: an RGB canvas with lines, filled rectangles and filled convex polygons (a
+rotated box), saved as PNG.
 
 Pixels live in one ``bytearray`` (row-major, 3 bytes each), so drawing needs nothing but the standard
 library and the PNG bytes depend only on the pixels: the same drawing always gives the same file.
@@ -6,6 +7,7 @@ library and the PNG bytes depend only on the pixels: the same drawing always giv
 
 from __future__ import annotations
 
+import math
 import struct
 import zlib
 
@@ -58,6 +60,37 @@ class Canvas:
             return
         run = bytes(_rgb(rgb)) * (x1 - x0 + 1)
         for y in range(y0, y1 + 1):
+            i = 3 * (y * self.w + x0)
+            self.pixels[i:i + len(run)] = run
+
+    def fill_convex(self, points: list[tuple[float, float]], rgb: RGB) -> None:
+        """A filled convex polygon with corners at real-valued screen ``points`` (in order around it), clipped
+        to the canvas. Pixel (x, y) is filled when its centre (x + 0.5, y + 0.5) lies inside or on the edge,
+        the usual rule for shapes that do not sit on the pixel grid: a rotated box covers the same pixels
+        whichever corner it is given from, and two boxes that share an edge leave no gap between them."""
+        if len(points) < 3:
+            return
+        ys = [p[1] for p in points]
+        top = max(math.ceil(min(ys) - 0.5), 0)
+        bottom = min(math.floor(max(ys) - 0.5), self.h - 1)
+        edges = list(zip(points, points[1:] + points[:1]))
+        for y in range(top, bottom + 1):
+            c = y + 0.5
+            left, right = math.inf, -math.inf
+            for (ax, ay), (bx, by) in edges:
+                if ay == by:
+                    if ay == c:
+                        left, right = min(left, ax, bx), max(right, ax, bx)
+                elif min(ay, by) <= c <= max(ay, by):
+                    x = ax + (c - ay) * (bx - ax) / (by - ay)
+                    left, right = min(left, x), max(right, x)
+            if left > right:
+                continue
+            x0 = max(math.ceil(left - 0.5), 0)
+            x1 = min(math.floor(right - 0.5), self.w - 1)
+            if x0 > x1:
+                continue
+            run = bytes(_rgb(rgb)) * (x1 - x0 + 1)
             i = 3 * (y * self.w + x0)
             self.pixels[i:i + len(run)] = run
 

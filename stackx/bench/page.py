@@ -1,11 +1,12 @@
 """``report.html``: one page that stands alone (its pictures are ``data:`` URIs; no network, no file beside it).
 
-It opens on the summary (``stackx.bench.summary``): for each case the cheapest solver that passes and why
-each other one fails. Each case follows as a collapsible section (closed; a link to ``#CASE`` opens it): its
-settings, its runs against time, speed against error with the equal-cost winners and the Pareto front, and a
-table of every run. Then what spans the cases (the stability matrix, steps to recover and to settle, the
-lab's claims) and the definitions. Every sentence about an outcome is generated from the records; the fixed
-text only defines the measures. Column headers carry their units.
+It opens on the summary (``stackx.bench.summary``): for each case the cheapest solver that passes and why each
+other one fails. Each case follows as a collapsible section (closed; a link to ``#CASE`` opens it): its
+settings, its runs against time, for a planar case its start and final states drawn
+(``stackx.bench.snapshots``), speed against error with the equal-cost winners and the Pareto front, and a
+table of every run. Then what spans the cases (the stability matrix, steps to recover and to settle, the lab's
+claims) and the definitions. Every sentence about an outcome is generated from the records; the fixed text
+only defines the measures. Column headers carry their units.
 """
 
 from __future__ import annotations
@@ -15,7 +16,9 @@ import json
 from stackx.bench.compare import Cell, case_records, failing, label, matrix, outcomes
 from stackx.bench.markup import esc, number, swatch, table, td
 from stackx.bench.result import DEFINITIONS, CaseResult, per_call_note, shown, step_time
+from stackx.bench.snapshots import Snapshot
 from stackx.bench.summary import summary_html
+from stackx.bench.sweep import Record
 from stackx.criteria import NAMES
 
 CSS = """
@@ -32,6 +35,9 @@ details { margin: .4em 0; } details > summary { cursor: pointer; }
 details > summary > h2, details > summary > h3 { display: inline; font-size: 1.15em; }
 details.case { border-top: 1px solid #ddd; padding-top: .3em; } details.case[open] { padding-bottom: .8em; }
 span.verdict { color: #555; margin-left: .6em; }
+div.states { display: flex; flex-wrap: wrap; gap: .6em; } figure.state { margin: 0; text-align: center; }
+figure.state img { width: 192px; image-rendering: pixelated; } figure.state figcaption { font-size: 12px; }
+figcaption.pass { color: #1d6b1d; } figcaption.fail { color: #9b2a1a; }
 """
 
 # opens the collapsed section a link points at (#CASE), on load and when the link is followed
@@ -150,13 +156,29 @@ def _trajectories_note(res: CaseResult) -> str:
     missing = [f"{label(r.solver, r.knob, r.value)} ({failing(r)})" for r in runs if r.series is None]
     text = ("Each solver at the knob value the summary shows: its smallest that passed (solid line), else its "
             "largest tried (dashed): the setting that answers the case, or the most effort a failing solver was "
-            "given, to see how it fails. Dotted: the rigid rest height and the depth limit.")
+            "given, to see how it fails. Dotted: the rigid rest height and the depth limit"
+            + (", and below, the drift and turn limits of the boxes placed at rest." if _drifts(runs) else "."))
     if missing:
         text += " Not drawn: " + "; ".join(missing) + "."
     return f"<p class=note>{esc(text)}</p>"
 
 
-def _case_html(res: CaseResult, pictures: dict[str, str]) -> str:
+def _drifts(runs: list[Record]) -> bool:
+    """Whether the runs' series have drift (a planar scene with boxes placed at rest): the plot has its panels."""
+    return any(r.series is not None and r.series.drift_x is not None for r in runs)
+
+
+def _states_html(shots: list[Snapshot]) -> str:
+    """The start and each shown run's final state, side by side, captioned and marked passed or failed."""
+    figures = "".join(
+        f'<figure class="state"><img src="{s.uri}" alt="{esc(s.caption)}"><figcaption'
+        f'{"" if s.passed is None else (" class=pass" if s.passed else " class=fail")}>{esc(s.caption)}'
+        "</figcaption></figure>" for s in shots)
+    return (f'<div class="states">{figures}</div><p class=note>Drawn in one view, at one scale: the scene as it '
+            "starts, then where each solver left it at the knob value the summary shows.</p>")
+
+
+def _case_html(res: CaseResult, pictures: dict[str, str], states: list[Snapshot] | None = None) -> str:
     case, run = res.case, res.case.run
     crit = case.section.criteria
     contacts = run.scene.size() - len(run.scene.events())
@@ -187,10 +209,13 @@ def _case_html(res: CaseResult, pictures: dict[str, str]) -> str:
         parts.append(f"<p><b>Lab claim.</b> {esc(res.claim['text'])}</p>")
     parts.append("<h3>Against time</h3>")
     if "time" in pictures:
-        parts.append(f'<p><img src="{pictures["time"]}" alt="top box height and largest depth against time, '
+        drift = ", drift and turn" if _drifts(outcomes(res.records)) else ""
+        parts.append(f'<p><img src="{pictures["time"]}" alt="top box height, largest depth{drift} against time, '
                      f'{esc(res.name)}"></p>' + _trajectories_note(res))
     else:
         parts.append("<p class=note>No picture: no run has a series to draw (every run blew up).</p>")
+    if states:
+        parts.append("<h3>Start and final states</h3>" + _states_html(states))
     parts.append("<h3>Speed against error</h3>")
     if "speed" in pictures:
         parts.append(f'<p><img src="{pictures["speed"]}" alt="speed against error, {esc(res.name)}"></p>')
@@ -208,8 +233,10 @@ def _case_html(res: CaseResult, pictures: dict[str, str]) -> str:
 
 
 def report_html(results: list[CaseResult], pictures: dict[str, dict[str, str]], command: str, wall_seconds: float,
-                mach: dict[str, object], vers: dict[str, str]) -> str:
-    """The page; ``pictures`` holds per case the ``data:`` URIs of its plots (``time``, ``speed``)."""
+                mach: dict[str, object], vers: dict[str, str],
+                states: dict[str, list[Snapshot]] | None = None) -> str:
+    """The page; ``pictures`` holds per case the ``data:`` URIs of its plots (``time``, ``speed``), ``states``
+    the pictures of its start and final states, where it has them."""
     claims = [f"<li><b>{esc(res.name)}</b>: {esc(res.claim['text'])}</li>" for res in results if res.claim]
     defs = "".join(f"<li><b>{esc(k)}</b>: {esc(v)}</li>" for k, v in DEFINITIONS.items())
     blown = [r for res in results for r in res.records if r.blew_up]
@@ -227,7 +254,7 @@ def report_html(results: list[CaseResult], pictures: dict[str, dict[str, str]], 
         "<p><button type=button onclick='openAll(true)'>open all</button> "
         "<button type=button onclick='openAll(false)'>close all</button></p>",
     ]
-    page += [_case_html(res, pictures.get(res.name, {})) for res in results]
+    page += [_case_html(res, pictures.get(res.name, {}), (states or {}).get(res.name, [])) for res in results]
     page += ["<details open><summary><h2>Stability matrix</h2></summary>",
              "<p class=note>Each cell: the knob values at which the solver passed all three criteria, or, when it "
              "passed at none, what failed at the largest knob value tried.</p>",

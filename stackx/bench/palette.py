@@ -4,7 +4,8 @@ A solver keeps its colour from plot to plot and from report to report, so a read
 lab solver is red need not read a legend again. The built-in solvers have colours of their own (the lab
 solver red, the reference near black, the others the remaining colours of matplotlib's ``tab10``); any other
 solver (a plugin) gets one of a second set, picked by a hash of its name, so it too keeps its colour
-everywhere (two plugins may share one).
+everywhere (two plugins may share one). A planar solver named after a column one (``planar-pgs``) has that
+solver's hue, darker (``SHADE``): the lab's rules are red on either model, and no two built-ins share a colour.
 """
 
 from __future__ import annotations
@@ -22,14 +23,20 @@ BUILT_IN = {
     "jacobi": "#bcbd22",
     "exact": "#222222",
 }
+PLANAR = "planar-"  # the planar solvers' prefix: planar-pgs is the lab's rules on the planar model
+SHADE = 0.6  # a planar solver's colour: its column counterpart's, each channel times this
 OTHERS = ("#e377c2", "#7f7f7f", "#6b6ecf", "#b5651d", "#637939", "#ad494a", "#3182bd", "#e6550d", "#31a354",
           "#756bb1")
 
 
 def colour(solver: str) -> str:
-    """The solver's colour as ``#rrggbb``: its own for a built-in, else one of ``OTHERS`` by a hash of the name
-    (a hash of the bytes, not Python's ``hash``, which changes from process to process)."""
+    """The solver's colour as ``#rrggbb``: its own for a built-in, its counterpart's darker for a planar one,
+    else one of ``OTHERS`` by a hash of the name (a hash of the bytes, not Python's ``hash``, which changes from
+    process to process)."""
     if solver in BUILT_IN:
         return BUILT_IN[solver]
+    if solver.startswith(PLANAR) and solver[len(PLANAR):] in BUILT_IN:
+        rgb = bytes.fromhex(BUILT_IN[solver[len(PLANAR):]][1:])
+        return "#" + bytes(int(c * SHADE) for c in rgb).hex()
     digest = hashlib.sha256(solver.encode()).digest()
     return OTHERS[int.from_bytes(digest[:4], "big") % len(OTHERS)]

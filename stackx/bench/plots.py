@@ -14,6 +14,8 @@ from ``stackx.bench.palette`` in every picture.
 - **Against time**, one per case: two small panels side by side, the top box's height and the largest
   contact depth, one line per solver at the knob value the summary shows (``compare.chosen``): solid
   where it passed, dashed where it failed, with the rigid rest height and the depth limit as dotted lines.
+  A planar case whose scene places boxes at rest gets two more below: how far they drifted sideways and how
+  far they turned, with the drift and turn limits dotted.
 """
 
 from __future__ import annotations
@@ -116,15 +118,22 @@ def rest_height(records: list[Record]) -> float | None:
     return None
 
 
-def trajectories_png(title: str, shown: list[Record], depth_limit: float, rest: float | None) -> bytes | None:
-    """Top height and largest depth against time, one line per record of ``shown`` that has a series; None
-    when none has."""
+def trajectories_png(title: str, shown: list[Record], depth_limit: float, rest: float | None,
+                     drift_limits: tuple[float, float] | None = None) -> bytes | None:
+    """Top height and largest depth against time, one line per record of ``shown`` that has a series, and,
+    when the series have drift (planar scenes with boxes placed at rest), two more panels below: the largest
+    sideways drift (m) and turn (degrees), with ``drift_limits`` (m, rad) dotted; None when none has a series."""
     drawn = [r for r in shown if r.series is not None and r.series.steps]
     if not drawn:
         return None
     plt = _pyplot()
     floor = DEPTH_FLOOR * depth_limit
-    fig, (top, deep) = plt.subplots(1, 2, figsize=(11.5, 3.5), dpi=100, sharex=True)
+    drifts = any(r.series.drift_x is not None for r in drawn)  # type: ignore[union-attr]
+    if drifts:
+        fig, grid = plt.subplots(2, 2, figsize=(11.5, 6.4), dpi=100, sharex=True)
+        (top, deep), (side, turn) = grid
+    else:
+        fig, (top, deep) = plt.subplots(1, 2, figsize=(11.5, 3.5), dpi=100, sharex=True)
     try:
         for r in drawn:
             s = r.series
@@ -136,24 +145,46 @@ def trajectories_png(title: str, shown: list[Record], depth_limit: float, rest: 
                 name += f", crushed at step {r.crushed_at}"
             top.plot(t, s.top, label=name, **style)
             deep.plot(t, [max(d, floor) for d in s.depth], **style)
+            if drifts and s.drift_x is not None and s.drift_angle is not None:
+                side.plot(t, s.drift_x, **style)
+                turn.plot(t, [math.degrees(a) for a in s.drift_angle], **style)
             if r.crushed:
                 top.plot(t[-1:], s.top[-1:], "x", color=style["color"], ms=8, mew=2)
                 deep.plot(t[-1:], [max(s.depth[-1], floor)], "x", color=style["color"], ms=8, mew=2)
         if rest is not None and math.isfinite(rest):
             top.axhline(rest, color="0.3", ls=":", lw=1, label="rigid rest height")
-        deep.axhline(depth_limit, color="0.3", ls=":", lw=1)
-        deep.annotate(f"depth limit {depth_limit:g} m", (0.99, depth_limit), xycoords=("axes fraction", "data"),
-                      ha="right", va="bottom", fontsize=7, color="0.3")
+        _limit(deep, depth_limit, f"depth limit {depth_limit:g} m")
         deep.set_yscale("log")
         deep.set_ylim(bottom=floor / 1.5)
         top.set_title(f"{title}: top box height (m)", fontsize=9)
         deep.set_title(f"{title}: largest contact depth (m; below {floor:g} drawn at the axis)", fontsize=9)
-        for ax in (top, deep):
-            ax.set_xlabel("time (s)")
+        axes = [top, deep]
+        if drifts:
+            if drift_limits is not None:
+                _limit(side, drift_limits[0], f"drift limit {drift_limits[0]:g} m")
+                _limit(turn, math.degrees(drift_limits[1]), f"turn limit {math.degrees(drift_limits[1]):.3g}°")
+            side.set_title(f"{title}: largest sideways drift of the boxes placed at rest (m)", fontsize=9)
+            turn.set_title(f"{title}: largest turn of the boxes placed at rest (degrees)", fontsize=9)
+            for ax in (side, turn):
+                ax.set_ylim(bottom=0)
+            axes += [side, turn]
+        for ax in axes:
             ax.grid(True, which="both", lw=0.3, alpha=0.5)
             ax.tick_params(labelsize=8)
+        for ax in axes[-2:]:
+            ax.set_xlabel("time (s)")
         fig.legend(fontsize=7, loc="center left", bbox_to_anchor=(0.745, 0.5), frameon=False)
-        fig.subplots_adjust(left=0.06, right=0.73, bottom=0.14, top=0.91, wspace=0.2)
+        if drifts:
+            fig.subplots_adjust(left=0.06, right=0.73, bottom=0.08, top=0.95, wspace=0.2, hspace=0.22)
+        else:
+            fig.subplots_adjust(left=0.06, right=0.73, bottom=0.14, top=0.91, wspace=0.2)
         return _png(fig)
     finally:
         plt.close(fig)
+
+
+def _limit(ax: Any, value: float, text: str) -> None:
+    """A dotted horizontal line at a criterion's limit, named at the right end."""
+    ax.axhline(value, color="0.3", ls=":", lw=1)
+    ax.annotate(text, (0.99, value), xycoords=("axes fraction", "data"), ha="right", va="bottom", fontsize=7,
+                color="0.3")

@@ -22,6 +22,7 @@ from stackx.bench.compare import matrix, outcomes, why
 from stackx.bench.markup import png_uri
 from stackx.bench.page import report_html
 from stackx.bench.plots import rest_height, speed_error_png, trajectories_png
+from stackx.bench.snapshots import snapshots
 from stackx.bench.result import DEFINITIONS, CaseResult
 from stackx.bench.sweep import Record
 from stackx.outdir import OutputDir
@@ -102,7 +103,8 @@ def pictures(res: CaseResult) -> dict[str, str]:
     there is something to draw."""
     out = {}
     crit = res.case.section.criteria
-    time_png = trajectories_png(res.name, outcomes(res.records), crit.depth_limit, rest_height(res.records))
+    time_png = trajectories_png(res.name, outcomes(res.records), crit.depth_limit, rest_height(res.records),
+                                (crit.drift, crit.turn))
     if time_png is not None:
         out["time"] = png_uri(time_png)
     speed_png = speed_error_png(res.name, res.records)
@@ -115,4 +117,6 @@ def write(results: list[CaseResult], out: OutputDir, command: str, wall_seconds:
     """Stage ``bench.json`` and ``report.html`` (``OutputDir.commit`` writes them)."""
     out.write_text("bench.json", bench_json(results, command, wall_seconds))
     drawn = {res.name: pictures(res) for res in results}
-    out.write_text("report.html", report_html(results, drawn, command, wall_seconds, machine(), versions(results)))
+    states = {res.name: snapshots(res) for res in results}
+    out.write_text("report.html", report_html(results, drawn, command, wall_seconds, machine(), versions(results),
+                                              states))

@@ -52,6 +52,7 @@ class Record:
     timing: dict[str, Any] = field(default_factory=dict)
     reference: bool = False  # the model's reference solver: its error is zero by definition
     series: Trajectory | None = field(default=None, repr=False)  # against time, for the report (not in as_dict)
+    final: Any = field(default=None, repr=False)  # the final state (a batch of one), for the report's pictures
 
     @property
     def crushed(self) -> bool:
@@ -65,9 +66,9 @@ class Record:
 
     def as_dict(self) -> dict[str, Any]:
         """The record as ``bench.json`` keeps it: every field but the series (the report's file keeps the
-        series of the runs it shows)."""
-        doc = dataclasses.asdict(dataclasses.replace(self, series=None))
-        del doc["series"]
+        series of the runs it shows) and the final state."""
+        doc = dataclasses.asdict(dataclasses.replace(self, series=None, final=None))
+        del doc["series"], doc["final"]
         return {**doc, "crushed": self.crushed}
 
 
@@ -88,6 +89,7 @@ def _measure(case: Case, plan: SolverPlan, variant: str, value: int, result: Run
         rec.crushed_at = log.crushed_at
         rec.error = log.error()
     rec.series = series if rec.crushed_at is None or series is None else series.until(rec.crushed_at)
+    rec.final = result.final
     verdicts = judge(rec.measures, case.section.criteria, case.run.model.unjudged(case.run))
     rec.criteria = {name: v.as_dict() for name, v in verdicts.items()}
     rec.passed = passed(verdicts)
@@ -127,7 +129,7 @@ def run_plan(case: Case, plan: SolverPlan, progress: Progress | None = None) -> 
         return {r.name: r for r in run_experiment(experiment, report, log, record).runs}
 
     log = case.run.model.step_log(case.section.criteria)
-    watched = SeriesLog(log) if log is not None else None  # a model without a step log is not stepped one by one
+    watched = SeriesLog(log)  # the step log, if the model has one, and the series against time
     try:
         results = run([r for _, _, r in runs], watched, progress)
     except RunError:
@@ -141,8 +143,8 @@ def run_plan(case: Case, plan: SolverPlan, progress: Progress | None = None) -> 
             except RunError as exc:
                 out.append(_blown(case, plan, variant, value, str(exc)))
                 continue
-        rows = (log.rows[spec.name], watched.series(spec.name)) if watched is not None else (None, None)
-        out.append(_measure(case, plan, variant, value, result, *rows))
+        row_log = log.rows[spec.name] if log is not None else None
+        out.append(_measure(case, plan, variant, value, result, row_log, watched.series(spec.name)))
     return out
 
 

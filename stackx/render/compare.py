@@ -16,8 +16,10 @@ outputs:
 Each run is drawn every ``every`` steps into its own pictures (``frames``, a template with ``{run}`` and
 ``{index}``), and the page shows one panel per run, all on the same frame, with the player's controls
 (``stackx.render.player.controlled_player_html``), the step and time of the frame, and under each picture the
-top box's height and the deepest contact, where the solvers' differences show before they are visible. The
-runs must step with the same dt, so that a frame is one instant for all of them.
+top box's height (a planar world's highest box) and the deepest contact, where the solvers' differences show
+before they are visible. The runs must step with the same dt, so that a frame is one instant for all of
+them. A planar world's pictures share one view, fitted to every frame of every run, so the panels compare
+at one scale.
 """
 
 from __future__ import annotations
@@ -29,9 +31,8 @@ from pydantic import Field
 
 from stackx.outputs import Renderer
 from stackx.registry import renderers
-from stackx.render.frames import describe
+from stackx.render.draw import DRAWN, describe, framed, picture
 from stackx.render.player import Panel, controlled_player_html
-from stackx.render.style import draw_column
 from stackx.render.timeline import TimelineParams, frame_count, frame_steps, labels
 
 
@@ -61,7 +62,7 @@ class Compare(Renderer):
     """Several runs of one experiment played side by side, frame by frame in step."""
 
     Params = CompareParams
-    models = ("column",)
+    models = DRAWN
     count: int
     runs: list[str]
 
@@ -105,13 +106,14 @@ class Compare(Renderer):
         return set(self.steps())
 
     def write(self, result, out) -> None:  # type: ignore[no-untyped-def]
-        style, steps = self.params.style, self.steps()
+        steps = self.steps()
+        style = framed([result.run(name).frames[k] for name in self.runs for k in steps], self.params.style)
         panels = []
         for name in self.runs:
             run = result.run(name)
             images = self.names(name)
             for image, step in zip(images, steps):
-                out.write_bytes(image, draw_column(run.frames[step], style).png_bytes())
+                out.write_bytes(image, picture(run.frames[step], style).png_bytes())
             settings = ", ".join(f"{k} {v if isinstance(v, str) else json.dumps(v)}"
                                  for k, v in flat(run.spec.solver_params.model_dump(mode="json")))
             panels.append(Panel(name, f"{run.spec.solver_cls.plugin_name}: {settings}", images,

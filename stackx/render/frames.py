@@ -1,21 +1,24 @@
-"""Pictures of the column every ``every`` steps, and optionally an HTML page that plays them.
+"""Pictures of the world every ``every`` steps, and optionally an HTML page that plays them.
+
+The column is drawn by the lab's rules; a planar world with its boxes turned, every frame in one view fitted
+to all of them (``stackx.render.draw``), so the picture does not jump while the boxes move.
 
 By default the page is the lab's (``player_html``: the pictures in a loop). With ``controls: true`` it is a
 player with pause, step, a frame slider, speed and keys, showing each frame's step and time and the top box's
-height and the deepest contact under the picture; with ``count: all`` the frames run to the end of the run,
-the whole settling. Both are asked for, so the lab's ``index.html`` and pictures stay as they are.
+height (a planar world's highest box) and the deepest contact under the picture; with ``count: all`` the
+frames run to the end of the run, the whole settling. Both are asked for, so the lab's ``index.html`` and
+pictures stay as they are.
 """
 
 from __future__ import annotations
 
 from pydantic import Field
 
-from stackx.models.column.state import ColumnState
 from stackx.outputs import Renderer
 from stackx.registry import renderers
 from stackx.render.pick import run_name
 from stackx.render.player import Panel, controlled_player_html, player_html
-from stackx.render.style import draw_column
+from stackx.render.draw import DRAWN, describe, framed, picture
 from stackx.render.timeline import TimelineParams, frame_count, frame_steps, labels
 
 
@@ -28,17 +31,12 @@ class FramesParams(TimelineParams):
                                               "false: the lab's page, the pictures in a loop")
 
 
-def describe(state: ColumnState) -> str:
-    """The figures a player shows under a picture of the column: where the top box is and the deepest contact."""
-    return f"top box {state.y[0, -1]:.3f} m · deepest contact {state.penetration()[0].max():.4f} m"
-
-
 @renderers.register("frames")
 class Frames(Renderer):
-    """The column drawn every few steps, with an optional HTML page that plays the pictures."""
+    """The world drawn every few steps, with an optional HTML page that plays the pictures."""
 
     Params = FramesParams
-    models = ("column",)
+    models = DRAWN
     count: int
 
     def steps(self) -> list[int]:
@@ -65,9 +63,9 @@ class Frames(Renderer):
 
     def write(self, result, out) -> None:  # type: ignore[no-untyped-def]
         run = result.run(self.run)
-        style = self.params.style
+        style = framed([run.frames[k] for k in self.steps()], self.params.style)
         for name, step in zip(self.names(), self.steps()):
-            out.write_bytes(name, draw_column(run.frames[step], style).png_bytes())
+            out.write_bytes(name, picture(run.frames[step], style).png_bytes())
         if not self.params.player:
             return
         title = result.spec.description or result.spec.name

@@ -1,4 +1,5 @@
-"""A picture of the column at one step (the final state unless ``step`` says otherwise)."""
+"""A picture of the world at one step (the final state unless ``step`` says otherwise): the column by the lab's
+rules, a planar world with its boxes turned and the view fitted to them (``stackx.render.draw``)."""
 
 from __future__ import annotations
 
@@ -7,7 +8,8 @@ from pydantic import Field
 from stackx.outputs import Renderer
 from stackx.registry import renderers
 from stackx.render.pick import run_name
-from stackx.render.style import Styled, draw_column
+from stackx.render.draw import DRAWN, framed, picture
+from stackx.render.style import Styled
 
 
 class StackParams(Styled):
@@ -18,10 +20,10 @@ class StackParams(Styled):
 
 @renderers.register("stack")
 class StackPicture(Renderer):
-    """The column drawn at one step, by default the final state."""
+    """The world drawn at one step, by default the final state."""
 
     Params = StackParams
-    models = ("column",)
+    models = DRAWN
 
     def check(self, spec, fail) -> None:  # type: ignore[no-untyped-def]
         self.run = run_name(spec, self.params.run, fail)
@@ -35,4 +37,4 @@ class StackPicture(Renderer):
 
     def write(self, result, out) -> None:  # type: ignore[no-untyped-def]
         state = result.run(self.run).frames[self.at]
-        out.write_bytes(self.params.path, draw_column(state, self.params.style).png_bytes())
+        out.write_bytes(self.params.path, picture(state, framed([state], self.params.style)).png_bytes())

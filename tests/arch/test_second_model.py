@@ -215,5 +215,6 @@ def test_a_column_renderer_on_the_pendulum_is_refused(cli: Cli, tmp_path: Path) 
                                                "{render: stack, path: stack.png}"))
     done = cli("run", config, "--out", tmp_path / "out")
     assert done.returncode == 2
-    assert done.stderr.strip().endswith("outputs[1].render: 'stack' draws column scenes, not 'pendulum' (run 'main')")
+    assert done.stderr.strip().endswith("outputs[1].render: 'stack' draws column and planar scenes, not 'pendulum' "
+                                          "(run 'main')")
     assert not (tmp_path / "out").exists()
