@@ -27,6 +27,8 @@ class Planar(Model):
     window = measures.MOTION_WINDOW
     reference = "planar-exact"
     bytes_per_body = 112  # a recorded state per body: 12 float64 arrays and touched, rounded up
+    step_cost = 100.0  # a planar body-step in plain Python (collision, two-point manifolds, friction) costs about
+    # a hundred column box-steps: a 55-box pyramid steps at some 0.12 s per step uncompiled
 
     @classmethod
     def speeds(cls, state: Any) -> np.ndarray:
