@@ -97,6 +97,7 @@ def test_a_planar_scene_starting_faster_than_max_speed_is_refused_at_load(tmp_pa
                       + "limits: {max_speed: 52}\n")
     with pytest.raises(ConfigError) as caught:
         api.load(config)  # 50 m/s at the centre, 4 rad/s x 0.707 m at the corners: 52.83 m/s
-    assert f"run 'main' starts with a box at {50 + 4 * math.sqrt(0.5):g} m/s, over limits.max_speed = 52" in str(caught.value)
+    assert (f"run 'main' starts with box 0 that moves at {50 + 4 * math.sqrt(0.5):.4g} m/s (centre and rotation), "
+            "over limits.max_speed = 52") in str(caught.value)
     config.write_text(config.read_text().replace("max_speed: 52", "max_speed: 53"))
     api.load(config)
