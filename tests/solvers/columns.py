@@ -25,10 +25,10 @@ MOTION_WINDOW = 60
 
 
 def solver_names() -> list[Any]:
-    """Every registered solver: built in, installed and local; one that cannot run here (an engine whose
-    package is not installed) is skipped, saying how to install it."""
+    """Every registered solver that steps the column: built in, installed and local; one that cannot run here
+    (an engine whose package is not installed) is skipped, saying how to install it."""
     return [pytest.param(e.name, marks=pytest.mark.skip(reason=why)) if (why := registry.unavailable(e.plugin))
-            else e.name for e in registry.solvers.entries()]
+            else e.name for e in registry.solvers.entries() if "column" in getattr(e.plugin, "models", ("column",))]
 
 
 def column(ys: list[float], masses: list[float] | None = None, vs: list[float] | None = None,
