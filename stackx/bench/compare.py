@@ -100,10 +100,11 @@ def matrix(records: Iterable[Record]) -> dict[str, dict[str, Cell]]:
 
 
 def measured(records: Iterable[Record]) -> list[Record]:
-    """Records to draw on speed and error: timed, with an error against the exact solver, neither blown up
-    nor crushed, and not the reference itself (passed or not)."""
+    """Records to draw on speed and error: timed, with an error against the exact solver at every step (none
+    the reference left unsolved: an error missing steps may miss the worst), neither blown up nor crushed, and
+    not the reference itself (passed or not)."""
     return [r for r in case_records(records) if r.us_per_step is not None and r.error.get("rms") is not None
-            and not r.broke and not r.reference]
+            and not r.error.get("unsolved") and not r.broke and not r.reference]
 
 
 def contenders(records: Iterable[Record]) -> list[Record]:

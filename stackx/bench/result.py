@@ -35,7 +35,10 @@ DEFINITIONS = {
              "the step it came at (0-based). Comparing on the solver's own path measures how well each step is "
              "solved; running both side by side would compare two piles that part ways within a few steps. It "
              "includes what a solver does on purpose that a rigid contact does not (a bias pushing apart, soft "
-             "contacts, substeps, speculative contacts). A crushed run's error stops where it was crushed.",
+             "contacts, substeps, speculative contacts). A crushed run's error stops where it was crushed. On the "
+             "planar model the reference may fail to solve a step to 1e-10 m/s (it says so rather than guess): "
+             "the error then leaves those steps out, says how many, and the run is drawn in no speed-against-"
+             "error plot, front or winner.",
     "steps_to_recover": "the step from which every contact overlaps by at most criteria.depth_factor x "
                         "criteria.slop to the end of the run; - when the run ends overlapping",
     "steps_to_settle": "the step from which every contact is within that depth and that gap and the RMS motion "
@@ -142,6 +145,10 @@ def shown(rec: Record) -> dict[str, str]:
     m, e = rec.measures, rec.error
     figures = {"error": number(e.get("rms")), "error_max": number(e.get("max")),
                "worst_step": number(e.get("worst_step"), "d"), "reach": number(m.get("reach"))}
+    if e.get("unsolved"):  # the reference could not solve some steps: the error leaves them out, and says so
+        skipped = f" ({e['unsolved']} step{'s' if e['unsolved'] > 1 else ''} unsolved)"
+        figures["error"] += skipped
+        figures["error_max"] += skipped
     for k in MEASURES:
         figures[k] = number(m.get(k), "g" if k.startswith("steps_") else ".3g")
     return figures
