@@ -33,14 +33,12 @@ does not reach it.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-from typing import Any
-
 import numpy as np
 
 from stackx.criteria import Criteria
 from stackx.kernel import kernel
 from stackx.models.column.state import ColumnState
+from stackx.models.steplog import RowLog
 from stackx.runner import OnStep
 from stackx.solvers.exact import solve_step
 from stackx.solvers.isotonic import workspace
@@ -65,36 +63,6 @@ class BatchLog:
         self.last_unheld = np.full(rows, -1, dtype=np.int64)   # ... overlapped or had too wide a gap
         self.last_moving = np.full(rows, -1, dtype=np.int64)   # ... moved at or above the settled limit
         self.steps = 0
-
-
-@dataclass
-class RowLog:
-    """What one run's steps came to (see the module text): row ``b`` of a ``BatchLog``."""
-
-    log: BatchLog
-    b: int
-
-    def error(self) -> dict[str, Any]:
-        """``rms`` and ``max`` (m/s) over every step measured, the ``worst_step`` (0-based; None where no step
-        differs), and how many ``steps`` were measured (all, or those before the run was crushed)."""
-        log, b = self.log, self.b
-        if log.values[b] == 0:
-            return {"rms": None, "max": None, "worst_step": None, "steps": 0}
-        worst = float(log.worst[b])
-        return {"rms": float(np.sqrt(log.sumsq[b] / log.values[b])), "max": worst,
-                "worst_step": int(log.worst_step[b]) if worst != 0.0 else None, "steps": int(log.measured[b])}
-
-    @property
-    def crushed_at(self) -> int | None:
-        return int(self.log.crushed_at[self.b]) if self.log.crushed_at[self.b] >= 0 else None
-
-    def timeline(self) -> dict[str, int | None]:
-        """``steps_to_recover`` and ``steps_to_settle``: None when the last step did not get there."""
-        log, b = self.log, self.b
-        last = log.steps - 1
-        overlap, settle_at = int(log.last_overlap[b]), int(max(log.last_unheld[b], log.last_moving[b]))
-        return {"steps_to_recover": None if overlap == last else overlap + 1,
-                "steps_to_settle": None if settle_at == last else settle_at + 1}
 
 
 @kernel

@@ -29,12 +29,12 @@ run does not reach it. (The column's "no gap" check has no planar meaning: boxes
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
 from stackx.criteria import Criteria
+from stackx.models import steplog
 from stackx.models.planar.measures import half_diagonal, max_depth
 from stackx.models.planar.reference import ReferenceFailure
 from stackx.models.planar.state import PlanarState
@@ -58,40 +58,15 @@ class BatchLog:
         self.crushed_at = np.full(rows, -1, dtype=np.int64)
         self.last_overlap = np.full(rows, -1, dtype=np.int64)  # last step after which a contact overlapped too much
         self.last_moving = np.full(rows, -1, dtype=np.int64)   # ... moved at or above the settled limit
+        self.last_unheld = self.last_overlap  # no gap check: a pile is held when nothing overlaps too much
         self.steps = 0
 
 
-@dataclass
-class RowLog:
-    """What one run's steps came to (see the module text): row ``b`` of a ``BatchLog``."""
-
-    log: BatchLog
-    b: int
+class RowLog(steplog.RowLog):
+    """What one run's steps came to: the column's figures, and how many steps the reference left unsolved."""
 
     def error(self) -> dict[str, Any]:
-        """``rms`` and ``max`` (m/s) over every step measured, the ``worst_step`` (0-based; None where no step
-        differs), how many ``steps`` were measured (all, or those before the run was crushed) and how many
-        the reference left ``unsolved``."""
-        log, b = self.log, self.b
-        unsolved = int(log.unsolved[b])
-        if log.values[b] == 0:
-            return {"rms": None, "max": None, "worst_step": None, "steps": 0, "unsolved": unsolved}
-        worst = float(log.worst[b])
-        return {"rms": float(np.sqrt(log.sumsq[b] / log.values[b])), "max": worst,
-                "worst_step": int(log.worst_step[b]) if worst != 0.0 else None, "steps": int(log.measured[b]),
-                "unsolved": unsolved}
-
-    @property
-    def crushed_at(self) -> int | None:
-        return int(self.log.crushed_at[self.b]) if self.log.crushed_at[self.b] >= 0 else None
-
-    def timeline(self) -> dict[str, int | None]:
-        """``steps_to_recover`` and ``steps_to_settle``: None when the last step did not get there."""
-        log, b = self.log, self.b
-        last = log.steps - 1
-        overlap, settle_at = int(log.last_overlap[b]), int(max(log.last_overlap[b], log.last_moving[b]))
-        return {"steps_to_recover": None if overlap == last else overlap + 1,
-                "steps_to_settle": None if settle_at == last else settle_at + 1}
+        return {**super().error(), "unsolved": int(self.log.unsolved[self.b])}
 
 
 def box_speeds(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, radius: np.ndarray) -> np.ndarray:
