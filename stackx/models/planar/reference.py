@@ -16,16 +16,26 @@ sliding tangent gives ``pt = +-mu pn``, a separating point gives ``pn = pt = 0``
    unknowns per box however many points touch), and takes the step if it lowers the residual, else half of
    it, a quarter...; when no step does, more sweeps mend the modes. When the modes are right the answer is
    the solution up to rounding (semismooth Newton on the min-map, which converges locally in a few rounds);
-3. three tries, each checked by the residual: from the warm start; from zero impulses (a warm start can sit
-   on a corner of a pile's many equivalent load paths, where the modes cycle); from zero again with full
-   steps allowed to raise the residual a few rounds in a row (they cross regions where damped steps crawl).
+3. tries, each checked by the residual: damped Newton from the warm start; full Newton rounds from the warm
+   start and from zero impulses, mending inconsistent mode systems (below); damped Newton from zero (a warm
+   start can sit on a corner of a pile's many equivalent load paths, where the modes cycle); and full steps
+   from zero allowed to raise the residual a few rounds in a row (they cross regions where damped steps crawl).
 
-**Where it fails.** A point exactly at the friction bound while not slipping (sticking at the limit) is
-degenerate: its mode flips between sticking and sliding from round to round, and when several such points
-share a redundant load path the rounds can cycle without reaching 1e-10; the solve then raises
-(``ReferenceFailure`` with the best residual, typically 1e-6 m/s), and the bench counts the step as
-``unsolved``. Well-converged runs of the warm-started solvers on a box landing on a pyramid meet this on
-most steps; a pivoting method (Lemke's) would not, at a cost cubic in the number of points.
+**Faces that cannot stick at both points.** The two points of a face whose targets differ (one touching,
+one closing a speculative gap) close at different normal speeds, so the face turns; as the points sit at
+slightly different depths, their tangential slips then differ too (by the turn times their depth
+difference over their spacing, ~1e-9 m/s on a tilting stack). Both sticking is then a mode combination
+without an exact solution: its linear system is inconsistent, the proximal steps settle on a least-squares
+answer, and the modes read there are the same ones, so plain Newton stalls at ~1e-9 m/s. The full rounds
+notice the stall (same modes, residual not halving) and make the sticking point slipping most slide
+against its slip, friction at its bound, for as long as it keeps slipping that way: the exact answer has
+one point of such a face at its bound and the other sticking.
+
+**Where it fails.** A pile collapsing with many points changing mode at once can still make every try
+cycle; the solve then raises (``ReferenceFailure`` with the best residual reached) and the bench counts
+the step as ``unsolved``. A pivoting method (Lemke's, on the 4m-variable Stewart-Trinkle LCP) is the
+textbook answer; tried here on recorded failures in double precision, its degenerate pivots (every touching
+point has a zero target) ended on rays or wrong bases in about a quarter of them, so it is not used.
 
 **Why exact.** The answer is returned only once the contract's own measure, ``problem.residual`` of the
 final impulses (complementarity of every normal, the friction box of every tangent, velocities recomputed
@@ -221,24 +231,58 @@ def solve(problem: ContactProblem, pn: np.ndarray | None = None, pt: np.ndarray 
                 best_q, best = q, now
         return None, best
 
-    # each attempt is checked by the residual, so which one succeeds changes nothing but the cost: damped
-    # Newton from the warm start; from zero impulses (the warm start can sit on a corner of a pile's many
-    # equivalent load paths, where the modes cycle; sweeps from zero spread the load evenly); and full steps
-    # from zero, which cross regions where damped steps crawl
+    def full(q: np.ndarray, rounds: int) -> tuple[Solution | None, float]:
+        """Full Newton rounds from ``q``, mending inconsistent mode systems: the solution, or None and the best
+        residual reached. When the modes stay and the residual stops falling, the round's system has no exact
+        solution: two points of one face with different targets (one touching, one speculative) cannot both
+        stick, as their slips differ by what the face's turning gives. Then the sticking point slipping most
+        is made to slide against its slip (friction at its bound), and stays so while it slips that way."""
+        slide: dict[int, float] = {}
+        best, last = np.inf, np.inf
+        for done in range(rounds):
+            q = newton.step(q, slide)
+            now = newton.merit(q)
+            if now < tolerance:
+                pn, pt = q[:m] * kn, q[m:] * kt
+                score = residual(problem, pn, pt)
+                if score < tolerance:
+                    return Solution(pn, pt, velocities_after(problem, pn, pt), score, done + 1, swept), score
+            if not np.isfinite(now):
+                break
+            best = min(best, now)
+            gap = newton.gap(q)
+            for i in list(slide):  # a forced slide running the wrong way, or a point let go, is freed
+                if gap[m + i] * slide[i] > 0.0 or not q[i] > gap[i]:
+                    del slide[i]
+            if newton.kept and now > 0.5 * last:
+                qn, qt = q[:m], q[m:]
+                stick = (qn > gap[:m]) & (np.abs(qt - gap[m:]) <= newton.cone * qn)
+                slip = np.where(stick, np.abs(gap[m:]), 0.0)
+                worst = int(np.argmax(slip))
+                if slip[worst] > 0.0:
+                    slide[worst] = -float(np.sign(gap[m + worst]))
+                last = np.inf
+            else:
+                last = now
+        return None, best
+
+    # each try is checked by the residual, so which one succeeds changes nothing but the cost (the order is
+    # the module text's: the cheap tries first, on steps from runs that settle or collapse alike)
     plans = [(np.concatenate([pn / kn, pt / kt]), 0)]
     if pn.any() or pt.any():
         plans.append((np.zeros(2 * m), 0))
     plans.append((np.zeros(2 * m), WANDER))
     best = np.inf
-    for start, wander in plans:
+    tries = [(attempt, plans[0])] + [(full, plan) for plan in plans[:-1]] + [(attempt, plan) for plan in plans[1:]]
+    for method, (start, wander) in tries:
         newton.modes = None
-        found, reached = attempt(start, rounds, wander)
+        found, reached = full(start, 2 * rounds) if method is full else attempt(start, rounds, wander)
         if found is not None:
             return found
         best = min(best, reached)
     raise ReferenceFailure(f"the contact problem ({m} points, {n} bodies) was not solved to {tolerance:g} m/s "
-                           f"in {len(plans)} tries of {rounds} Newton rounds and {swept} sweeps: best residual "
-                           f"{best:.3g} m/s")
+                           f"in {len(tries)} tries ({rounds} damped or {2 * rounds} full Newton rounds each) and "
+                           f"{swept} sweeps: best residual {best:.3g} m/s")
 
 
 class ModeSystem:
@@ -292,9 +336,10 @@ class ModeSystem:
         v = self.v0[self.free_dof] + self.inv * (self.j_free.T @ (self.k * q))
         return self.j_free @ v + self.fixed_u - self.target
 
-    def step(self, q: np.ndarray) -> np.ndarray:
+    def step(self, q: np.ndarray, slide: dict[int, float] | None = None) -> np.ndarray:
         """One Newton round: the modes read at ``q``, and the scaled impulses that solve that mode
         combination, by proximal steps from ``q`` (with a singular system, the answer nearest ``q``).
+        ``slide`` (point: +-1) puts those held points in that sliding mode whatever ``q`` says.
         ``kept`` says the modes were the last round's, whose factorization is reused."""
         from scipy.sparse.linalg import splu
 
@@ -305,6 +350,9 @@ class ModeSystem:
         z = qt - gap[m:]
         plus = held & (z > self.cone * qn)
         minus = held & (z < -self.cone * qn)
+        for i, sign in (slide or {}).items():
+            if held[i]:
+                plus[i], minus[i] = sign > 0, sign < 0
         modes = np.concatenate([held, plus, minus])
         self.kept = self.modes is not None and np.array_equal(modes, self.modes)
         if not self.kept:
