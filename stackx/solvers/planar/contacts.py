@@ -264,13 +264,36 @@ def normal_visit(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, inv_mass: np.nda
 
 
 @kernel
+def two_point_lcp(k11: float, k12: float, k22: float, b1: float, b2: float, pair: bool) -> tuple[float, float, bool]:
+    """The two-point complementarity problem ``x >= 0``, ``K x + b >= 0``, ``x . (K x + b) = 0`` with
+    ``K = [[k11, k12], [k12, k22]]`` (how much a unit impulse at one point opens each): its four candidate
+    answers in order, both pressing (only when ``pair``, i.e. ``K`` is safely invertible), the first alone,
+    the second alone, neither; the first that meets every condition, and True. (0, 0, False) when none does,
+    which happens only in rounding (Box2D 2.x's block solver takes the same four cases)."""
+    if pair:
+        det = k11 * k22 - k12 * k12
+        x1 = (k12 * b2 - k22 * b1) / det
+        x2 = (k12 * b1 - k11 * b2) / det
+        if x1 >= 0.0 and x2 >= 0.0:
+            return x1, x2, True
+    x1 = -b1 / k11
+    if x1 >= 0.0 and k12 * x1 + b2 >= 0.0:
+        return x1, 0.0, True
+    x2 = -b2 / k22
+    if x2 >= 0.0 and k12 * x2 + b1 >= 0.0:
+        return 0.0, x2, True
+    if b1 >= 0.0 and b2 >= 0.0:
+        return 0.0, 0.0, True
+    return 0.0, 0.0, False
+
+
+@kernel
 def block_normal(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, inv_mass: np.ndarray, inv_inertia: np.ndarray,
                  ids: np.ndarray, table: np.ndarray, k: int, relaxation: float) -> bool:
     """The normal totals of points ``k`` and ``k + 1`` (one manifold: same bodies, same normal) solved together.
 
-    The two points' complementarity problem (``x >= 0``, ``K x + b >= 0``, ``x . (K x + b) = 0`` with ``K``
-    the 2 x 2 normal mass matrix) has four candidate answers: both pressing, only the first, only the second,
-    neither; the first that satisfies every condition is it, and the change from the current totals is applied.
+    The two points' complementarity problem (``two_point_lcp``, ``K`` the 2 x 2 normal mass matrix) is solved
+    for the totals, and the change from the current totals is applied.
     A box resting flat then has its load shared by both corners as the exact solve shares it, where visiting
     the corners one after the other lets the first take too much and the box rock. With ``relaxation`` w the
     totals move ``w`` times the way to that answer (kept >= 0). Returns False (nothing
@@ -291,16 +314,9 @@ def block_normal(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, inv_mass: np.nda
     a1, a2 = table[k, PN], table[j, PN]
     b1 = relative_velocity(vx, vy, w, ids, table, k, nx, ny) - table[k, TARGET] - (k11 * a1 + k12 * a2)
     b2 = relative_velocity(vx, vy, w, ids, table, j, nx, ny) - table[j, TARGET] - (k12 * a1 + k22 * a2)
-    x1 = (k12 * b2 - k22 * b1) / det
-    x2 = (k12 * b1 - k11 * b2) / det
-    if not (x1 >= 0.0 and x2 >= 0.0):
-        x1, x2 = -b1 / k11, 0.0
-        if not (x1 >= 0.0 and k12 * x1 + b2 >= 0.0):
-            x1, x2 = 0.0, -b2 / k22
-            if not (x2 >= 0.0 and k12 * x2 + b1 >= 0.0):
-                x1, x2 = 0.0, 0.0
-                if not (b1 >= 0.0 and b2 >= 0.0):
-                    return False
+    x1, x2, found = two_point_lcp(k11, k12, k22, b1, b2, True)
+    if not found:
+        return False
     x1, x2 = max(a1 + relaxation * (x1 - a1), 0.0), max(a2 + relaxation * (x2 - a2), 0.0)
     d1, d2 = x1 - a1, x2 - a2
     apply_impulse(vx, vy, w, inv_mass, inv_inertia, ids, table, k, d1 * nx, d1 * ny)

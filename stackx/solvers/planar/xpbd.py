@@ -42,7 +42,7 @@ from stackx.solvers.contacts import speculative_field
 from stackx.solvers.planar.base import PlanarSolver
 from stackx.solvers.planar.contacts import (A, B, MU, NX, NY, PN, PT, RAX, RAY, RBX, RBY, apply_impulse,
                                             contact_workspace, effective_mass, find_contacts, gravity,
-                                            integrate_positions, prepare, relative_velocity)
+                                            integrate_positions, prepare, relative_velocity, two_point_lcp)
 from stackx.solvers.planar.substep import (anchor, base_separations, manifold_end, moved, moved_body, separation,
                                            step_start)
 from stackx.solvers.xpbd import XPBDParams
@@ -107,22 +107,13 @@ def slip(ids: np.ndarray, table: np.ndarray, since: np.ndarray, before: np.ndarr
 @kernel
 def pair_solve(k11: float, k12: float, k22: float, s1: float, s2: float) -> tuple[float, float]:
     """Impulses ``l1, l2 >= 0`` that leave both points of a two-point manifold apart or touching, pushing
-    only the points that end touching: ``u = s + K l >= 0``, ``l . u = 0``, with ``K = [[k11, k12], [k12,
-    k22]]`` how much a unit impulse at one point opens each (Box2D 2.x's block solver takes the same four
-    cases). Both points together first, then each alone, else neither; a degenerate ``K`` (the two points
-    on one line through both centres) gets the first point alone, then the second with what is left."""
+    only the points that end touching (``two_point_lcp`` with ``b = s``); a degenerate ``K`` (the two points
+    on one line through both centres) is not inverted, and when no case fits in rounding the first point
+    is solved alone, then the second with what is left."""
     det = k11 * k22 - k12 * k12
-    if det > 1e-12 * k11 * k22:
-        l1 = (-s1 * k22 + s2 * k12) / det
-        l2 = (-s2 * k11 + s1 * k12) / det
-        if l1 >= 0.0 and l2 >= 0.0:
-            return l1, l2
-    l1 = max(-s1 / k11, 0.0)
-    if s2 + k12 * l1 >= 0.0:
-        return l1, 0.0
-    l2 = max(-s2 / k22, 0.0)
-    if s1 + k12 * l2 >= 0.0:
-        return 0.0, l2
+    l1, l2, found = two_point_lcp(k11, k12, k22, s1, s2, det > 1e-12 * k11 * k22)
+    if found:
+        return l1, l2
     l1 = max(-s1 / k11, 0.0)
     return l1, max(-(s2 + k12 * l1) / k22, 0.0)
 
