@@ -16,10 +16,17 @@ sliding tangent gives ``pt = +-mu pn``, a separating point gives ``pn = pt = 0``
    unknowns per box however many points touch), and takes the step if it lowers the residual, else half of
    it, a quarter...; when no step does, more sweeps mend the modes. When the modes are right the answer is
    the solution up to rounding (semismooth Newton on the min-map, which converges locally in a few rounds);
-3. tries, each checked by the residual: damped Newton from the warm start; full Newton rounds from the warm
-   start and from zero impulses, mending inconsistent mode systems (below); damped Newton from zero (a warm
-   start can sit on a corner of a pile's many equivalent load paths, where the modes cycle); and full steps
-   from zero allowed to raise the residual a few rounds in a row (they cross regions where damped steps crawl).
+3. tries, each checked by the residual, cheap ones first: damped Newton from the warm start; full Newton
+   rounds from the warm start and from zero impulses, mending inconsistent mode systems (below); damped
+   Newton from zero (a warm start can sit on a corner of a pile's many equivalent load paths, where the
+   modes cycle) and full steps from zero allowed to raise the residual a few rounds in a row (they cross
+   regions where damped steps crawl); full and damped rounds with a heavier proximal weight (``DAMPED``),
+   each going only part of the way to its modes' answer, which keeps a round from leaping far when the
+   modes read are wrong;
+4. Lemke's pivoting (``stackx.models.planar.lemke``) on problems up to ``LEMKE_POINTS`` points: on a box
+   landing on a pile, where many points change mode at once and the Newton rounds cycle between two mode
+   combinations; its answer is taken to the exact one by full Newton rounds. On small problems (up to
+   ``LEMKE_EARLY`` points) it comes right after the cheap tries, where it costs tens of milliseconds.
 
 **Faces that cannot stick at both points.** The two points of a face whose targets differ (one touching,
 one closing a speculative gap) close at different normal speeds, so the face turns; as the points sit at
@@ -31,11 +38,9 @@ notice the stall (same modes, residual not halving) and make the sticking point 
 against its slip, friction at its bound, for as long as it keeps slipping that way: the exact answer has
 one point of such a face at its bound and the other sticking.
 
-**Where it fails.** A pile collapsing with many points changing mode at once can still make every try
-cycle; the solve then raises (``ReferenceFailure`` with the best residual reached) and the bench counts
-the step as ``unsolved``. A pivoting method (Lemke's, on the 4m-variable Stewart-Trinkle LCP) is the
-textbook answer; tried here on recorded failures in double precision, its degenerate pivots (every touching
-point has a zero target) ended on rays or wrong bases in about a quarter of them, so it is not used.
+**Where it may still fail.** A problem over ``LEMKE_POINTS`` points (a 20-row pyramid has 800) on which
+every Newton try cycles; the solve then raises (``ReferenceFailure`` with the best residual reached) and
+the bench counts the step as ``unsolved``, shown beside the error, never silently skipped.
 
 **Why exact.** The answer is returned only once the contract's own measure, ``problem.residual`` of the
 final impulses (complementarity of every normal, the friction box of every tangent, velocities recomputed
@@ -65,6 +70,9 @@ from stackx.models.planar.problem import GROUND, ContactProblem, effective_masse
 
 TOLERANCE = 1e-10  # m/s: the contract's residual the reference reaches
 PROXIMAL = 1e-3  # the proximal weight d (dimensionless: a share of each point's own effective mass)
+DAMPED = (1e-1, 1e-2)  # heavier proximal weights of the last Newton tries: each round goes part of the way
+LEMKE_POINTS = 250  # largest problem (points) Lemke's pivoting is tried on when Newton fails (dense: O(m^3))
+LEMKE_EARLY = 64  # up to this many points, Lemke comes right after the cheap tries (it then takes < 0.1 s)
 SWEEPS = 200  # most projected Gauss-Seidel sweeps before the first Newton round, and after a lost one
 CHUNK = 10  # sweeps between looks at the residual
 NEAR = 1e-3  # m/s: the sweeps stop once the residual is below this (Newton takes it from there)
@@ -266,23 +274,47 @@ def solve(problem: ContactProblem, pn: np.ndarray | None = None, pt: np.ndarray 
                 last = now
         return None, best
 
-    # each try is checked by the residual, so which one succeeds changes nothing but the cost (the order is
-    # the module text's: the cheap tries first, on steps from runs that settle or collapse alike)
     plans = [(np.concatenate([pn / kn, pt / kt]), 0)]
     if pn.any() or pt.any():
         plans.append((np.zeros(2 * m), 0))
     plans.append((np.zeros(2 * m), WANDER))
+    def pivot(start: np.ndarray, rounds: int) -> tuple[Solution | None, float]:
+        """Lemke's pivoting (``stackx.models.planar.lemke``), each answer it ends on taken to the exact one by
+        full Newton rounds; ``start`` is not used (the walk starts from the problem itself)."""
+        from stackx.models.planar.lemke import solve_lcp
+
+        best = np.inf
+        for pn_start, pt_start in solve_lcp(problem):
+            newton.modes = None
+            found, reached = full(np.concatenate([pn_start / kn, pt_start / kt]), rounds)
+            if found is not None:
+                return found, reached
+            best = min(best, reached)
+        return None, best
+
+    # every try is checked by the residual, so the order changes nothing but the cost: the cheap tries first,
+    # then (on small problems, where it costs a few tens of ms) Lemke's pivoting, then heavier Newton tries,
+    # and Lemke last on problems up to LEMKE_POINTS, where it may take seconds
+    cheap = [(attempt, plans[0], PROXIMAL)] + [(full, plan, PROXIMAL) for plan in plans[:-1]]
+    heavy = ([(attempt, plan, PROXIMAL) for plan in plans[1:]]
+             + [(method, plans[0], d) for d in DAMPED for method in (full, attempt)])
+    lemke = [(pivot, plans[0], PROXIMAL)] if m <= LEMKE_POINTS else []
+    tries = cheap + lemke + heavy if m <= LEMKE_EARLY else cheap + heavy + lemke
     best = np.inf
-    tries = [(attempt, plans[0])] + [(full, plan) for plan in plans[:-1]] + [(attempt, plan) for plan in plans[1:]]
-    for method, (start, wander) in tries:
+    for method, (start, wander), proximal in tries:
+        if proximal != newton.proximal:
+            newton = ModeSystem(problem, kn, kt, proximal)
         newton.modes = None
-        found, reached = full(start, 2 * rounds) if method is full else attempt(start, rounds, wander)
+        if method is attempt:
+            found, reached = attempt(start, rounds, wander)
+        else:
+            found, reached = method(start, 2 * rounds if method is full else rounds)
         if found is not None:
             return found
         best = min(best, reached)
     raise ReferenceFailure(f"the contact problem ({m} points, {n} bodies) was not solved to {tolerance:g} m/s "
-                           f"in {len(tries)} tries ({rounds} damped or {2 * rounds} full Newton rounds each) and "
-                           f"{swept} sweeps: best residual {best:.3g} m/s")
+                           f"in {len(tries)} tries ({rounds} damped or {2 * rounds} full Newton rounds each"
+                           f"{', Lemke pivoting' if lemke else ''}) and {swept} sweeps: best residual {best:.3g} m/s")
 
 
 class ModeSystem:
@@ -297,7 +329,7 @@ class ModeSystem:
     many points touch, symmetric unless a point slides; SuperLU factors it in a few milliseconds.
     """
 
-    def __init__(self, problem: ContactProblem, kn: np.ndarray, kt: np.ndarray) -> None:
+    def __init__(self, problem: ContactProblem, kn: np.ndarray, kt: np.ndarray, proximal: float = PROXIMAL) -> None:
         from scipy import sparse
 
         self.m = m = problem.points
@@ -316,6 +348,7 @@ class ModeSystem:
         self.mu = problem.friction
         self.modes: np.ndarray | None = None
         self.kept = False
+        self.proximal = proximal
         self.sparse = sparse
 
     def merit(self, q: np.ndarray) -> float:
@@ -366,7 +399,7 @@ class ModeSystem:
             extra = sparse.vstack([slide_t, sparse.csr_matrix((free.shape[0] - slide_t.shape[0], j_rows.shape[1]))])
             self.g = ((j_rows + extra).T @ sparse.diags(self.k[free])).tocsc()
             self.j_rows = j_rows
-            matrix = sparse.diags(1.0 / self.inv) + (self.g @ j_rows) / PROXIMAL
+            matrix = sparse.diags(1.0 / self.inv) + (self.g @ j_rows) / self.proximal
             try:
                 # symmetric unless a point slides: then pivot for stability, as for any unsymmetric matrix
                 symmetric = not (plus.any() or minus.any())
@@ -382,9 +415,9 @@ class ModeSystem:
         momentum = self.v0[self.free_dof] / self.inv
         out = q[free]
         for _ in range(REFINE):  # proximal steps on one factorization: they converge to the modes' answer
-            h = base + PROXIMAL * out
-            v = self.factors.solve(momentum + self.g @ h / PROXIMAL)
-            new = (h - self.j_rows @ v) / PROXIMAL
+            h = base + self.proximal * out
+            v = self.factors.solve(momentum + self.g @ h / self.proximal)
+            new = (h - self.j_rows @ v) / self.proximal
             change = np.abs(new - out).max(initial=0.0)
             out = new
             if change <= 1e-3 * TOLERANCE:
