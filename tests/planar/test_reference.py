@@ -197,3 +197,28 @@ def test_a_face_that_cannot_stick_at_both_points_is_solved(index: int) -> None:
     assert np.array_equal(sol.velocity, velocities_after(p, sol.pn, sol.pt))
     slides = np.isclose(np.abs(sol.pt), p.friction * sol.pn, rtol=0, atol=1e-12) & (sol.pn > 1e-9)
     assert slides.any()
+
+
+def test_after_three_failed_steps_in_a_row_a_row_makes_only_its_first_try(monkeypatch: pytest.MonkeyPatch) -> None:
+    from stackx.models.planar import step_problem as sp
+
+    asked: list[bool] = []
+    outcomes = iter([False, False, False, False, True, False])  # False: the solve fails
+
+    def scripted(problem: ContactProblem, pn: np.ndarray, pt: np.ndarray, quick: bool = False):
+        asked.append(quick)
+        if not next(outcomes):
+            raise ReferenceFailure("scripted")
+        return solve(problem, pn, pt)
+
+    monkeypatch.setattr(sp, "solve", scripted)
+    s = pyramid(3)
+    reference = ReferenceStep(1, s.bodies)
+    for _ in range(6):
+        try:
+            reference.solve(0, s.x[0], s.y[0], s.angle[0], s.vx[0], s.vy[0], s.w[0], s.inv_mass[0],
+                            s.inv_inertia[0], s.hx[0], s.hy[0], s.friction[0], -9.8, 1 / 60, 0.02)
+        except ReferenceFailure:
+            pass
+    # three full solves fail; the fourth and fifth are quick; the fifth lands, so the sixth is full again
+    assert asked == [False, False, False, True, True, False]

@@ -36,7 +36,7 @@ import numpy as np
 
 from stackx.models.planar.problem import ContactProblem
 
-PIVOTS = 50  # most pivots per unknown before giving up
+PIVOTS = 3  # most pivots per unknown before giving up (the walks that end take one or two)
 PERTURBATIONS = (0.0, 1e-12, 1e-9, 1e-7)  # relative sizes of the perturbation of q, tried in turn
 
 

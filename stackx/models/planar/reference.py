@@ -71,7 +71,7 @@ from stackx.models.planar.problem import GROUND, ContactProblem, effective_masse
 TOLERANCE = 1e-10  # m/s: the contract's residual the reference reaches
 PROXIMAL = 1e-3  # the proximal weight d (dimensionless: a share of each point's own effective mass)
 DAMPED = (1e-1, 1e-2)  # heavier proximal weights of the last Newton tries: each round goes part of the way
-LEMKE_POINTS = 250  # largest problem (points) Lemke's pivoting is tried on when Newton fails (dense: O(m^3))
+LEMKE_POINTS = 120  # largest problem (points) Lemke's pivoting is tried on when Newton fails (dense: O(m^3))
 LEMKE_EARLY = 64  # up to this many points, Lemke comes right after the cheap tries (it then takes < 0.1 s)
 SWEEPS = 200  # most projected Gauss-Seidel sweeps before the first Newton round, and after a lost one
 CHUNK = 10  # sweeps between looks at the residual
@@ -89,7 +89,8 @@ class ReferenceFailure(RuntimeError):
 @dataclass
 class Solution:
     """A solved problem: impulses per point, the bodies' velocities after, the residual (m/s), and what it
-    took (Newton ``rounds`` and Gauss-Seidel ``sweeps``)."""
+    took (Newton ``rounds`` of the try that landed, Gauss-Seidel ``sweeps`` in all, and which ``attempt`` of
+    the solve's tries landed, from 1)."""
 
     pn: np.ndarray
     pt: np.ndarray
@@ -97,6 +98,7 @@ class Solution:
     residual: float
     rounds: int
     sweeps: int
+    attempt: int = 1
 
 
 @kernel
@@ -160,9 +162,10 @@ def jacobian(problem: ContactProblem) -> object:
 
 
 def solve(problem: ContactProblem, pn: np.ndarray | None = None, pt: np.ndarray | None = None,
-          tolerance: float = TOLERANCE, sweeps: int = SWEEPS, rounds: int = ROUNDS) -> Solution:
+          tolerance: float = TOLERANCE, sweeps: int = SWEEPS, rounds: int = ROUNDS, quick: bool = False) -> Solution:
     """Solve ``problem`` to ``residual < tolerance`` (m/s), starting from impulses ``pn``, ``pt`` (a warm
-    start, e.g. the last step's by feature; zeros when None). Raises ``ReferenceFailure`` when ``rounds``
+    start, e.g. the last step's by feature; zeros when None). ``quick``: the first try only (see
+    ``step_problem.ReferenceStep``: after steps in a row that every try failed). Raises ``ReferenceFailure`` when ``rounds``
     Newton rounds do not get there (see the module text for the method)."""
     m, n = problem.points, problem.bodies
     pn = np.zeros(m) if pn is None else np.array(pn, dtype=np.float64)
@@ -300,8 +303,10 @@ def solve(problem: ContactProblem, pn: np.ndarray | None = None, pt: np.ndarray 
              + [(method, plans[0], d) for d in DAMPED for method in (full, attempt)])
     lemke = [(pivot, plans[0], PROXIMAL)] if m <= LEMKE_POINTS else []
     tries = cheap + lemke + heavy if m <= LEMKE_EARLY else cheap + heavy + lemke
+    if quick:
+        tries = tries[:1]
     best = np.inf
-    for method, (start, wander), proximal in tries:
+    for number, (method, (start, wander), proximal) in enumerate(tries, 1):
         if proximal != newton.proximal:
             newton = ModeSystem(problem, kn, kt, proximal)
         newton.modes = None
@@ -310,6 +315,7 @@ def solve(problem: ContactProblem, pn: np.ndarray | None = None, pt: np.ndarray 
         else:
             found, reached = method(start, 2 * rounds if method is full else rounds)
         if found is not None:
+            found.attempt = number
             return found
         best = min(best, reached)
     raise ReferenceFailure(f"the contact problem ({m} points, {n} bodies) was not solved to {tolerance:g} m/s "
