@@ -1,12 +1,16 @@
-"""``python -m benchmarks.planar_reference``: what the planar reference solve costs per step of a pyramid.
+"""``python -m benchmarks.planar_reference``: what the planar reference solve costs per step, and which
+steps it cannot solve.
 
 The bench solves one reference problem per step of every planar run (``stackx.models.planar.error``), so its
-cost decides how long a planar bench takes. For pyramids of 10 and 20 rows (the scene's ``pyramid``
-generator), two runs of ``steps`` steps: ``planar-exact`` (a pile held at rest: the reference's own path) and
-``planar-pgs`` at 10 iterations (a pile that sags and slides: the hard path), each watched by the planar step
-log. Printed per case: the median and the largest time per reference solve, Newton rounds and sweeps per
-solve, and steps the reference could not solve; per pyramid, the ratio of the median solve on the sagging
-path to that on the held path, both measured in this one run.
+cost decides how long a planar bench takes, and a step it cannot solve is a gap in the measurement. By
+default, for pyramids of 10 and 20 rows (the scene's ``pyramid`` generator), two runs of ``steps`` steps:
+``planar-exact`` (a pile held at rest: the reference's own path) and ``planar-pgs`` at 10 iterations (a pile
+that sags and slides: the hard path), each watched by the planar step log; with ``--run CONFIG SOLVER KNOB``
+(repeatable; KNOB ``-`` for the solver's defaults), those runs instead. Printed per run: the median and the
+largest time per reference solve (failed ones included; ``planar-exact`` runs its own solve too), Newton
+rounds and sweeps per solved step, and the steps the reference could not solve of those the step log
+watched, with the run's RMS error; per pyramid, the ratio of the median solve on
+the sagging path to that on the held path, both measured in this one run.
 """
 
 from __future__ import annotations
@@ -18,6 +22,7 @@ import time
 from dataclasses import replace
 from pathlib import Path
 
+from stackx.bench.plan import knob_of
 from stackx.config import load
 from stackx.criteria import Criteria
 from stackx.kernel import compiled
@@ -27,24 +32,32 @@ from stackx.registry import solvers
 from stackx.runner import run_experiment
 
 
-def measure(rows: int, steps: int, solver: str) -> dict[str, float]:
-    """Time every reference solve of a ``solver`` run of a ``rows``-row pyramid, and the run's own steps."""
-    with tempfile.TemporaryDirectory() as folder:
-        path = Path(folder) / "pyramid.yaml"
-        path.write_text(f"scene: {{name: planar, pyramid: {{rows: {rows}}}}}\nsolver: {{name: {solver}}}\n"
-                        f"dt: 1/60\nsteps: {steps}\n")
-        spec = load(str(path))
+def load_run(path: str, steps: int, solver: str, knob: int | None) -> object:
+    """The plan of ``path`` cut to one run of ``solver`` (at ``knob`` of its cost knob, else its defaults) for
+    ``steps`` steps."""
+    spec = load(path)
     cls = solvers.get(solver)
-    params = cls.Params(iterations=10) if solver == "planar-pgs" else cls.Params()
-    spec.runs = [replace(spec.runs[0], solver_params=params)]
+    params = cls.Params()
+    name = knob_of(cls)
+    if knob is not None and name is not None:
+        params = cls.Params(**{name: knob})
+    spec.runs = [replace(spec.runs[0], solver_cls=cls, solver_params=params, steps=steps)]
+    return spec
+
+
+def measure(path: str, steps: int, solver: str, knob: int | None) -> dict[str, float]:
+    """Time every reference solve of a ``solver`` run of the config at ``path``, and the run's own steps."""
+    spec = load_run(path, steps, solver, knob)
     solves: list[float] = []
     work: list[tuple[int, int]] = []
     plain = step_problem.ReferenceStep._solve
 
     def timed(self: step_problem.ReferenceStep, *args: object) -> object:
         t0 = time.perf_counter()
-        found = plain(self, *args)  # type: ignore[arg-type]
-        solves.append(time.perf_counter() - t0)
+        try:
+            found = plain(self, *args)  # type: ignore[arg-type]
+        finally:
+            solves.append(time.perf_counter() - t0)
         work.append((found.rounds, found.sweeps))
         return found
 
@@ -59,25 +72,43 @@ def measure(rows: int, steps: int, solver: str) -> dict[str, float]:
         step_problem.ReferenceStep._solve = plain  # type: ignore[method-assign]
     (row,) = log.rows.values()
     timed_solves = solves[1:] or solves  # the first includes loading compiled code
+    error = row.error()
     return {"median_ms": 1e3 * statistics.median(timed_solves), "max_ms": 1e3 * max(timed_solves),
-            "rounds": statistics.mean(r for r, _ in work), "sweeps": statistics.mean(s for _, s in work),
-            "unsolved": row.error()["unsolved"], "solves": len(solves), "run_s": total}
+            "rounds": statistics.mean(r for r, _ in work) if work else 0.0,
+            "sweeps": statistics.mean(s for _, s in work) if work else 0.0,
+            "unsolved": error["unsolved"], "logged": error["steps"] + error["unsolved"], "rms": error["rms"],
+            "solves": len(solves), "run_s": total}
+
+
+def line(name: str, m: dict[str, float]) -> str:
+    rms = "-" if m["rms"] is None else f"{m['rms']:.4g}"
+    return (f"{name:<52}{m['median_ms']:>10.1f}{m['max_ms']:>10.1f}{m['rounds']:>8.1f}{m['sweeps']:>8.0f}"
+            f"{m['unsolved']:>6d}/{m['logged']:<5d}{rms:>10}")
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(prog="python -m benchmarks.planar_reference", description=__doc__)
     parser.add_argument("--steps", type=int, default=60, help="steps per run")
     parser.add_argument("--rows", type=int, nargs="+", default=[10, 20], help="pyramid sizes")
+    parser.add_argument("--run", nargs=3, action="append", metavar=("CONFIG", "SOLVER", "KNOB"),
+                        help="a run to measure instead of the pyramids (KNOB '-': the solver's defaults)")
     args = parser.parse_args()
-    print(f"{'case':<28}{'ms/solve':>10}{'max ms':>10}{'rounds':>8}{'sweeps':>8}{'unsolved':>10}"
-          )
+    print(f"{'run':<52}{'ms/solve':>10}{'max ms':>10}{'rounds':>8}{'sweeps':>8}{'unsolved':>12}{'rms m/s':>10}")
+    if args.run:
+        for path, solver, knob in args.run:
+            m = measure(path, args.steps, solver, None if knob == "-" else int(knob))
+            print(line(f"{Path(path).stem} {solver} {knob}", m))
+        return
     for rows in args.rows:
         medians = []
-        for solver in ("planar-exact", "planar-pgs"):
-            m = measure(rows, args.steps, solver)
-            medians.append(m["median_ms"])
-            print(f"{f'pyramid-{rows} {solver}':<28}{m['median_ms']:>10.1f}{m['max_ms']:>10.1f}"
-                  f"{m['rounds']:>8.1f}{m['sweeps']:>8.0f}{m['unsolved']:>10d}")
+        with tempfile.TemporaryDirectory() as folder:
+            path = Path(folder) / "pyramid.yaml"
+            path.write_text(f"scene: {{name: planar, pyramid: {{rows: {rows}}}}}\nsolver: {{name: planar-pgs}}\n"
+                            f"dt: 1/60\nsteps: {args.steps}\n")
+            for solver, knob in (("planar-exact", None), ("planar-pgs", 10)):
+                m = measure(str(path), args.steps, solver, knob)
+                medians.append(m["median_ms"])
+                print(line(f"pyramid-{rows} {solver}{'' if knob is None else f' {knob}'}", m))
         print(f"pyramid-{rows}: a solve on the sagging path costs {medians[1] / medians[0]:.0f}x one on the held path")
 
 

@@ -362,12 +362,13 @@ class ModeSystem:
         the friction box of every tangent): cheap, for the line search; the answer is checked by
         ``problem.residual``."""
         m = self.m
-        gap = self.gap(q)
-        qn, qt = q[:m], q[m:]
-        bound = self.cone * qn
-        normal = np.abs(np.minimum(qn, gap[:m]))
-        tangent = np.abs(qt - np.minimum(np.maximum(qt - gap[m:], -bound), bound))
-        worst = max(normal.max(), tangent.max())
+        with np.errstate(over="ignore", invalid="ignore"):  # a step run off to infinity: merit inf
+            gap = self.gap(q)
+            qn, qt = q[:m], q[m:]
+            bound = self.cone * qn
+            normal = np.abs(np.minimum(qn, gap[:m]))
+            tangent = np.abs(qt - np.minimum(np.maximum(qt - gap[m:], -bound), bound))
+            worst = max(normal.max(), tangent.max())
         return worst if np.isfinite(worst) else np.inf
 
     def gap(self, q: np.ndarray) -> np.ndarray:
@@ -420,15 +421,18 @@ class ModeSystem:
         base = self.target[free] - self.fixed_u[free]
         momentum = self.v0[self.free_dof] / self.inv
         out = q[free]
-        for _ in range(REFINE):  # proximal steps on one factorization: they converge to the modes' answer
-            h = base + self.proximal * out
-            v = self.factors.solve(momentum + self.g @ h / self.proximal)
-            new = (h - self.j_rows @ v) / self.proximal
-            change = np.abs(new - out).max(initial=0.0)
-            out = new
-            if change <= 1e-3 * TOLERANCE:
-                break
-        q = np.zeros(2 * m)
-        q[free] = out
-        q[m:] += self.sign * self.cone * q[:m]
+        # a wrong mode combination's system may have no answer, and its proximal steps then run off to
+        # infinity: that is expected, and the caller's merit (inf or NaN) rejects the step
+        with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+            for _ in range(REFINE):  # proximal steps on one factorization: they converge to the modes' answer
+                h = base + self.proximal * out
+                v = self.factors.solve(momentum + self.g @ h / self.proximal)
+                new = (h - self.j_rows @ v) / self.proximal
+                change = np.abs(new - out).max(initial=0.0)
+                out = new
+                if change <= 1e-3 * TOLERANCE:
+                    break
+            q = np.zeros(2 * m)
+            q[free] = out
+            q[m:] += self.sign * self.cone * q[:m]
         return q
