@@ -34,7 +34,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from stackx.models.planar.problem import ContactProblem
+from stackx.models.planar.problem import ContactProblem, jacobian
 
 PIVOTS = 3  # most pivots per unknown before giving up (the walks that end take one or two)
 PERTURBATIONS = (0.0, 1e-12, 1e-9, 1e-7)  # relative sizes of the perturbation of q, tried in turn
@@ -95,8 +95,6 @@ def lemke(m: np.ndarray, q: np.ndarray, tiny: float = 1e-12) -> np.ndarray:
 def contact_lcp(problem: ContactProblem) -> tuple[np.ndarray, np.ndarray]:
     """``(M, q)`` of the problem's LCP in ``z = (pn, pt+, pt-, beta)`` (4 x points unknowns; see the module
     text), dense, from the Delassus matrix ``W = J M^-1 J^T`` of the contract's Jacobian."""
-    from stackx.models.planar.reference import jacobian
-
     points = problem.points
     jac = jacobian(problem).toarray()
     inv = np.repeat(problem.inv_mass, 3)

@@ -72,6 +72,27 @@ class ContactProblem:
         return np.stack([-self.normal[:, 1], self.normal[:, 0]], axis=1)
 
 
+def jacobian(problem: ContactProblem) -> object:
+    """``J`` (2m x 3n, scipy CSR): row ``k`` the normal of point ``k``, row ``m + k`` its tangent; body ``i``'s
+    columns ``3i, 3i + 1, 3i + 2`` (vx, vy, w). ``J v`` is the points' relative velocities."""
+    from scipy import sparse
+
+    m, n = problem.points, problem.bodies
+    t = problem.tangent()
+    rows, cols, vals = [], [], []
+    for offset, d in ((0, problem.normal), (m, t)):
+        for body, r, sign in ((problem.body_a, problem.ra, -1.0), (problem.body_b, problem.rb, 1.0)):
+            moving = np.flatnonzero(body != GROUND)
+            bi, rm, dm = body[moving], r[moving], d[moving]
+            arm = rm[:, 0] * dm[:, 1] - rm[:, 1] * dm[:, 0]
+            for axis, value in enumerate((dm[:, 0], dm[:, 1], arm)):
+                rows.append(offset + moving)
+                cols.append(3 * bi + axis)
+                vals.append(sign * value)
+    return sparse.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
+                             shape=(2 * m, 3 * n))
+
+
 def _side(problem: ContactProblem, body: np.ndarray, r: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Per point, one side's inverse mass, inverse inertia and arm ``r``, all 0 for the ground."""
     ground = body == GROUND

@@ -66,7 +66,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from stackx.kernel import compiled, enabled, kernel
-from stackx.models.planar.problem import GROUND, ContactProblem, effective_masses, residual, velocities_after
+from stackx.models.planar.problem import (GROUND, ContactProblem, effective_masses, jacobian, residual,
+                                          velocities_after)
 
 TOLERANCE = 1e-10  # m/s: the contract's residual the reference reaches
 PROXIMAL = 1e-3  # the proximal weight d (dimensionless: a share of each point's own effective mass)
@@ -140,33 +141,12 @@ def project_sweeps(body_a: np.ndarray, body_b: np.ndarray, normal: np.ndarray, r
                     v[a, 2] -= inv_inertia[a] * delta * (ra[k, 0] * dy - ra[k, 1] * dx)
 
 
-def jacobian(problem: ContactProblem) -> object:
-    """``J`` (2m x 3n, scipy CSR): row ``k`` the normal of point ``k``, row ``m + k`` its tangent; body ``i``'s
-    columns ``3i, 3i + 1, 3i + 2`` (vx, vy, w). ``J v`` is the points' relative velocities."""
-    from scipy import sparse
-
-    m, n = problem.points, problem.bodies
-    t = problem.tangent()
-    rows, cols, vals = [], [], []
-    for offset, d in ((0, problem.normal), (m, t)):
-        for body, r, sign in ((problem.body_a, problem.ra, -1.0), (problem.body_b, problem.rb, 1.0)):
-            moving = np.flatnonzero(body != GROUND)
-            bi, rm, dm = body[moving], r[moving], d[moving]
-            arm = rm[:, 0] * dm[:, 1] - rm[:, 1] * dm[:, 0]
-            for axis, value in enumerate((dm[:, 0], dm[:, 1], arm)):
-                rows.append(offset + moving)
-                cols.append(3 * bi + axis)
-                vals.append(sign * value)
-    return sparse.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
-                             shape=(2 * m, 3 * n))
-
-
 def solve(problem: ContactProblem, pn: np.ndarray | None = None, pt: np.ndarray | None = None,
           tolerance: float = TOLERANCE, sweeps: int = SWEEPS, rounds: int = ROUNDS, quick: bool = False) -> Solution:
     """Solve ``problem`` to ``residual < tolerance`` (m/s), starting from impulses ``pn``, ``pt`` (a warm
     start, e.g. the last step's by feature; zeros when None). ``quick``: the first try only (see
-    ``step_problem.ReferenceStep``: after steps in a row that every try failed). Raises ``ReferenceFailure`` when ``rounds``
-    Newton rounds do not get there (see the module text for the method)."""
+    ``step_problem.ReferenceStep``: after steps in a row that every try failed). Raises ``ReferenceFailure``
+    when no try gets there (see the module text for the method)."""
     m, n = problem.points, problem.bodies
     pn = np.zeros(m) if pn is None else np.array(pn, dtype=np.float64)
     pt = np.zeros(m) if pt is None else np.array(pt, dtype=np.float64)
