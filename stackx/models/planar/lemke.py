@@ -20,8 +20,8 @@ These are exactly the contract's conditions (``stackx.models.planar.problem``): 
 complementarity and the 2D friction box with maximal dissipation.
 
 **Cost.** The basis inverse is kept dense and updated by one rank-one step per pivot: ``O(n^2)`` a pivot for
-``n = 4 x points`` unknowns, and the walks that end take one or two pivots per unknown: about 20 ms for 20
-points, while at 200 points a walk took 15 to 40 s. So it is used only when the Newton rounds fail, and
+``n = 4 x points`` unknowns, and the walks that end take one or two pivots per unknown: a few ms a walk for
+20 points, while at 200 points a walk took 14 to 40 s. So it is used only when the Newton rounds fail, and
 only up to ``reference.LEMKE_POINTS`` points.
 
 **Degenerate problems.** Every resting point has a zero target and every ``beta`` row a zero constant, so
@@ -35,7 +35,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from stackx.models.planar.problem import ContactProblem, jacobian
+from stackx.models.planar.problem import ContactProblem, inverse_masses, jacobian
 
 PIVOTS = 3  # most pivots per unknown before giving up (the walks that end take one or two)
 PERTURBATIONS = (0.0, 1e-12, 1e-9, 1e-7)  # relative sizes of the perturbation of q, tried in turn
@@ -98,9 +98,7 @@ def contact_lcp(problem: ContactProblem) -> tuple[np.ndarray, np.ndarray]:
     text), dense, from the Delassus matrix ``W = J M^-1 J^T`` of the contract's Jacobian."""
     points = problem.points
     jac = jacobian(problem).toarray()
-    inv = np.repeat(problem.inv_mass, 3)
-    inv[2::3] = problem.inv_inertia
-    w = (jac * inv) @ jac.T
+    w = (jac * inverse_masses(problem)) @ jac.T
     free = jac @ problem.velocity.reshape(-1)
     nn, nt, tn, tt = w[:points, :points], w[:points, points:], w[points:, :points], w[points:, points:]
     one, zero = np.eye(points), np.zeros((points, points))

@@ -72,6 +72,13 @@ class ContactProblem:
         return np.stack([-self.normal[:, 1], self.normal[:, 0]], axis=1)
 
 
+def inverse_masses(problem: ContactProblem) -> np.ndarray:
+    """``M^-1`` as a vector over the ``3n`` velocities of ``jacobian``'s columns: 1/m, 1/m, 1/I per body."""
+    inv = np.repeat(problem.inv_mass, 3)
+    inv[2::3] = problem.inv_inertia
+    return inv
+
+
 def jacobian(problem: ContactProblem) -> object:
     """``J`` (2m x 3n, scipy CSR): row ``k`` the normal of point ``k``, row ``m + k`` its tangent; body ``i``'s
     columns ``3i, 3i + 1, 3i + 2`` (vx, vy, w). ``J v`` is the points' relative velocities."""

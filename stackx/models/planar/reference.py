@@ -62,12 +62,13 @@ on the same machine. It is the one place scipy is used (a new dependency).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import partial
 
 import numpy as np
 
 from stackx.kernel import compiled, enabled, kernel
-from stackx.models.planar.problem import (GROUND, ContactProblem, effective_masses, jacobian, residual,
-                                          velocities_after)
+from stackx.models.planar.problem import (GROUND, ContactProblem, effective_masses, inverse_masses, jacobian,
+                                          residual, velocities_after)
 
 TOLERANCE = 1e-10  # m/s: the contract's residual the reference reaches
 PROXIMAL = 1e-3  # the proximal weight d (dimensionless: a share of each point's own effective mass)
@@ -178,6 +179,13 @@ def solve(problem: ContactProblem, pn: np.ndarray | None = None, pt: np.ndarray 
                 break
         return q
 
+    def landed(q: np.ndarray, rounds: int) -> Solution | None:
+        """The solution at scaled impulses ``q`` if the contract's residual, recomputed from them, is below
+        the tolerance (after ``rounds`` Newton rounds), else None."""
+        pn, pt = q[:m] * kn, q[m:] * kt
+        score = residual(problem, pn, pt)
+        return Solution(pn, pt, velocities_after(problem, pn, pt), score, rounds, swept) if score < tolerance else None
+
     def attempt(q: np.ndarray, rounds: int, wander: int) -> tuple[Solution | None, float]:
         """Newton rounds from ``q`` (swept first unless already near): the solution, or None and the best
         residual reached. ``wander``: how many full steps in a row may leave the residual above the best
@@ -188,11 +196,9 @@ def solve(problem: ContactProblem, pn: np.ndarray | None = None, pt: np.ndarray 
             now = newton.merit(q)
         best_q, best, wandering = q, now, 0
         for done in range(rounds + 1):
-            if now < tolerance:
-                pn, pt = q[:m] * kn, q[m:] * kt
-                score = residual(problem, pn, pt)
-                if score < tolerance:
-                    return Solution(pn, pt, velocities_after(problem, pn, pt), score, done, swept), score
+            found = landed(q, done) if now < tolerance else None
+            if found is not None:
+                return found, found.residual
             if done == rounds:
                 break
             target = newton.step(q)
@@ -233,11 +239,9 @@ def solve(problem: ContactProblem, pn: np.ndarray | None = None, pt: np.ndarray 
         for done in range(rounds):
             q = newton.step(q, slide)
             now = newton.merit(q)
-            if now < tolerance:
-                pn, pt = q[:m] * kn, q[m:] * kt
-                score = residual(problem, pn, pt)
-                if score < tolerance:
-                    return Solution(pn, pt, velocities_after(problem, pn, pt), score, done + 1, swept), score
+            found = landed(q, done + 1) if now < tolerance else None
+            if found is not None:
+                return found, found.residual
             if not np.isfinite(now):
                 break
             best = min(best, now)
@@ -257,13 +261,9 @@ def solve(problem: ContactProblem, pn: np.ndarray | None = None, pt: np.ndarray 
                 last = now
         return None, best
 
-    plans = [(np.concatenate([pn / kn, pt / kt]), 0)]
-    if pn.any() or pt.any():
-        plans.append((np.zeros(2 * m), 0))
-    plans.append((np.zeros(2 * m), WANDER))
-    def pivot(start: np.ndarray, rounds: int) -> tuple[Solution | None, float]:
+    def pivot() -> tuple[Solution | None, float]:
         """Lemke's pivoting (``stackx.models.planar.lemke``), each answer it ends on taken to the exact one by
-        full Newton rounds; ``start`` is not used (the walk starts from the problem itself)."""
+        full Newton rounds."""
         from stackx.models.planar.lemke import solve_lcp
 
         best = np.inf
@@ -275,25 +275,28 @@ def solve(problem: ContactProblem, pn: np.ndarray | None = None, pt: np.ndarray 
             best = min(best, reached)
         return None, best
 
+    warm, zero = np.concatenate([pn / kn, pt / kt]), np.zeros(2 * m)
+    starts = [warm, zero] if pn.any() or pt.any() else [warm]
     # every try is checked by the residual, so the order changes nothing but the cost: the cheap tries first,
     # then (on small problems, where it costs a few tens of ms) Lemke's pivoting, then heavier Newton tries,
-    # and Lemke last on problems up to LEMKE_POINTS, where it may take seconds
-    cheap = [(attempt, plans[0], PROXIMAL)] + [(full, plan, PROXIMAL) for plan in plans[:-1]]
-    heavy = ([(attempt, plan, PROXIMAL) for plan in plans[1:]]
-             + [(method, plans[0], d) for d in DAMPED for method in (full, attempt)])
-    lemke = [(pivot, plans[0], PROXIMAL)] if m <= LEMKE_POINTS else []
+    # and Lemke last on problems up to LEMKE_POINTS, where it may take seconds. A try: its proximal weight
+    # and what it runs.
+    cheap = [(PROXIMAL, partial(attempt, warm, rounds, 0))]
+    cheap += [(PROXIMAL, partial(full, start, 2 * rounds)) for start in starts]
+    heavy = [(PROXIMAL, partial(attempt, zero, rounds, 0))] * (len(starts) - 1)
+    heavy += [(PROXIMAL, partial(attempt, zero, rounds, WANDER))]
+    for d in DAMPED:
+        heavy += [(d, partial(full, warm, 2 * rounds)), (d, partial(attempt, warm, rounds, 0))]
+    lemke = [(PROXIMAL, pivot)] if m <= LEMKE_POINTS else []
     tries = cheap + lemke + heavy if m <= LEMKE_EARLY else cheap + heavy + lemke
     if quick:
         tries = tries[:1]
     best = np.inf
-    for number, (method, (start, wander), proximal) in enumerate(tries, 1):
+    for number, (proximal, run) in enumerate(tries, 1):
         if proximal != newton.proximal:
             newton = ModeSystem(problem, kn, kt, proximal)
         newton.modes = None
-        if method is attempt:
-            found, reached = attempt(start, rounds, wander)
-        else:
-            found, reached = method(start, 2 * rounds if method is full else rounds)
+        found, reached = run()
         if found is not None:
             found.attempt = number
             return found
@@ -319,8 +322,7 @@ class ModeSystem:
         from scipy import sparse
 
         self.m = m = problem.points
-        inv = np.repeat(problem.inv_mass, 3)
-        inv[2::3] = problem.inv_inertia
+        inv = inverse_masses(problem)
         self.free_dof = inv > 0.0
         self.inv = inv[self.free_dof]
         jac = jacobian(problem).tocsc()
