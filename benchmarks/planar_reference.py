@@ -10,7 +10,8 @@ that sags and slides: the hard path), each watched by the planar step log; with 
 largest time per reference solve (failed ones included; ``planar-exact`` runs its own solve too), Newton
 rounds and sweeps per solved step, and the steps the reference could not solve of those the step log
 watched, with the run's RMS error; per pyramid, the ratio of the median solve on
-the sagging path to that on the held path, both measured in this one run.
+the sagging path to that on the held path, both measured in this one run. ``--proximal D`` solves with
+another proximal weight (``stackx.models.planar.reference.PROXIMAL``), to see what it trades.
 """
 
 from __future__ import annotations
@@ -26,7 +27,7 @@ from stackx.bench.plan import knob_of
 from stackx.config import load
 from stackx.criteria import Criteria
 from stackx.kernel import compiled
-from stackx.models.planar import step_problem
+from stackx.models.planar import reference, step_problem
 from stackx.models.planar.error import StepLog
 from stackx.registry import solvers
 from stackx.runner import run_experiment
@@ -92,7 +93,10 @@ def main() -> None:
     parser.add_argument("--rows", type=int, nargs="+", default=[10, 20], help="pyramid sizes")
     parser.add_argument("--run", nargs=3, action="append", metavar=("CONFIG", "SOLVER", "KNOB"),
                         help="a run to measure instead of the pyramids (KNOB '-': the solver's defaults)")
+    parser.add_argument("--proximal", type=float, default=reference.PROXIMAL,
+                        help="the reference's proximal weight d (what it trades: reference.py's module text)")
     args = parser.parse_args()
+    reference.PROXIMAL = args.proximal
     print(f"{'run':<52}{'ms/solve':>10}{'max ms':>10}{'rounds':>8}{'sweeps':>8}{'unsolved':>12}{'rms m/s':>10}")
     if args.run:
         for path, solver, knob in args.run:

@@ -20,9 +20,10 @@ sliding tangent gives ``pt = +-mu pn``, a separating point gives ``pn = pt = 0``
    rounds from the warm start and from zero impulses, mending inconsistent mode systems (below); damped
    Newton from zero (a warm start can sit on a corner of a pile's many equivalent load paths, where the
    modes cycle) and full steps from zero allowed to raise the residual a few rounds in a row (they cross
-   regions where damped steps crawl); full and damped rounds with a heavier proximal weight (``DAMPED``),
+   regions where damped steps crawl); full and damped rounds with heavier proximal weights (``DAMPED``),
    each going only part of the way to its modes' answer, which keeps a round from leaping far when the
-   modes read are wrong;
+   modes read are wrong (which weight lands a step is hard to foretell: a step of ``stack-40`` that every
+   try at 1e-5 missed lands at 1e-3, 1e-4 and 1e-6 alike, so the heavier tries start at 1e-3);
 4. Lemke's pivoting (``stackx.models.planar.lemke``) on problems up to ``LEMKE_POINTS`` points: on a box
    landing on a pile, where many points change mode at once and the Newton rounds cycle between two mode
    combinations; its answer is taken to the exact one by full Newton rounds. On small problems (up to
@@ -54,6 +55,16 @@ solved with a proximal term: ``(W + d K^-1) p = rhs + d K^-1 p_prev`` with ``d =
 point's effective mass ``K``), which picks, of all the impulses that hold, the one nearest the current
 answer, and whose repeated rounds converge to an exact solution of the singular system.
 
+**The proximal weight trades speed on tall piles against runaway on wrong modes.** Each proximal step
+shrinks the error along an eigenvector of the scaled Delassus matrix ``K^1/2 W K^1/2`` with eigenvalue
+``lam`` by ``d / (lam + d)``. A tall stack's boxes tilting together give tiny ones (a step of ``stack-40``:
+4.6e-7, 1.8e-5, 1.4e-4), so at ``d = 1e-3`` those parts crawled (0.9995 a step), every Newton try stalled
+near 1e-7 m/s, and mostly only Lemke's pivoting, the last try, solved a step: 1.7 s a solve against 45 ms at
+``d = 1e-5``, where the first or second try lands (median over the first 40 steps under ``planar-warm-start``:
+``python3 -m benchmarks.planar_reference --proximal D``). A smaller ``d`` lets a round on wrong modes, or on a
+face that cannot stick at both points, run off faster: at 1e-7, 3 of the first 150 steps of ``stack-10``
+under ``planar-xpbd`` at 16 substeps went unsolved, none at 1e-5.
+
 **Speed.** Scipy's sparse LU (SuperLU) factors a 20-row pyramid's mode system (630 velocities, 800 points)
 in about 10 ms; a dense LU of the same pyramid's Delassus system (2,360 unknowns) took 840 ms side by side
 on the same machine. It is the one place scipy is used (a new dependency).
@@ -71,8 +82,8 @@ from stackx.models.planar.problem import (GROUND, ContactProblem, effective_mass
                                           residual, velocities_after)
 
 TOLERANCE = 1e-10  # m/s: the contract's residual the reference reaches
-PROXIMAL = 1e-3  # the proximal weight d (dimensionless: a share of each point's own effective mass)
-DAMPED = (1e-1, 1e-2)  # heavier proximal weights of the last Newton tries: each round goes part of the way
+PROXIMAL = 1e-5  # the proximal weight d (dimensionless: a share of each point's own effective mass)
+DAMPED = (1e-3, 1e-1, 1e-2)  # heavier proximal weights of the last Newton tries: each round goes part of the way
 LEMKE_POINTS = 120  # largest problem (points) Lemke's pivoting is tried on when Newton fails (dense: O(m^3))
 LEMKE_EARLY = 64  # up to this many points, Lemke comes right after the cheap tries (it then takes < 0.1 s)
 SWEEPS = 200  # most projected Gauss-Seidel sweeps before the first Newton round, and after a lost one
@@ -158,7 +169,7 @@ def solve(problem: ContactProblem, pn: np.ndarray | None = None, pt: np.ndarray 
         bad = int(np.flatnonzero(~(np.isfinite(kn) & np.isfinite(kt)))[0])
         raise ReferenceFailure(f"contact point {bad} joins two immovable bodies "
                                f"({problem.body_a[bad]}, {problem.body_b[bad]}): no impulse can act on it")
-    newton = ModeSystem(problem, kn, kt)
+    newton = ModeSystem(problem, kn, kt, PROXIMAL)
     args = (problem.body_a, problem.body_b, problem.normal, problem.ra, problem.rb, problem.friction,
             problem.target, problem.inv_mass, problem.inv_inertia, kn, kt)
     swept = 0
