@@ -164,12 +164,12 @@ def validate(paths: Paths, sets: Sets = None, plugins: Plugins = None, debug: De
 def plugins(plugins: Plugins = None, debug: Debug = False) -> None:
     """List every plugin: its kind, its name and where it came from (and why one cannot run here)."""
     with _guard(debug):
-        from rich.console import Console
         from rich.markup import escape
         from rich.table import Table
 
         from stackx import registry
         from stackx.config import local_plugins
+        from stackx.screen import screen
 
         local_plugins(plugins, Path("plugins"))
         _warn_failed_plugins()
@@ -184,7 +184,7 @@ def plugins(plugins: Plugins = None, debug: Debug = False) -> None:
                 if why:
                     doc = f"unavailable: {why}"
                 table.add_row(kind, entry.name, entry.origin, escape(doc))
-        Console().print(table)
+        screen().print(table)
 
 
 @app.command(epilog="Example: stackx schema --out stackx.schema.json")

@@ -26,6 +26,7 @@ from stackx.errors import BlowUp, ConfigError, RunError, first_line
 from stackx.executor import Choice, open_executor
 from stackx.outdir import TIMING, OutputDir, failed_file, write_json
 from stackx.outputs import confine
+from stackx.screen import screen
 from stackx.results import ExperimentResult
 
 
@@ -55,7 +56,7 @@ def run_all(specs: list[ExperimentSpec], out: Path, quiet: bool = False, wide: b
         if any(r.runs for r in results):
             _write_timing(results, out)
     if not quiet:
-        Console().print(summary(results, out, wide))
+        screen().print(summary(results, out, wide))
     return results
 
 

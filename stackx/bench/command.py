@@ -22,8 +22,8 @@ from stackx.config import config_files, load
 from stackx.errors import ConfigError
 from stackx.executor import Choice, open_executor
 from stackx.outdir import OutputDir
+from stackx.screen import screen
 
-WIDE = 160  # columns of the tables when the output is not a terminal
 
 
 def load_cases(paths: list[str], solvers: list[str] | None, plugins: Path | None,
@@ -65,10 +65,8 @@ def bench(paths: list[str], solvers: list[str] | None, out: Path | None, plugins
         write(results, staged, command, wall)
         staged.commit()
     if not quiet:
-        screen = Console()
-        if not screen.is_terminal:
-            screen = Console(width=max(screen.width, WIDE))  # a log file gets the whole table, not a squeezed one
-        print_all(results, screen)
+        console = screen()
+        print_all(results, console)
         if out is not None:
-            screen.print(f"wrote {out / 'bench.json'} and {out / 'report.html'} in {wall:.1f} s")
+            console.print(f"wrote {out / 'bench.json'} and {out / 'report.html'} in {wall:.1f} s")
     return results

@@ -5,7 +5,9 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from tests.conftest import CONFIGS, Cli
+import pytest
+
+from tests.conftest import CONFIGS, REPO, Cli
 
 
 def test_the_run_table_fits_80_columns_and_cuts_no_number(cli: Cli, tmp_path: Path) -> None:
@@ -31,3 +33,13 @@ def test_wide_adds_the_monitors_at_full_precision(cli: Cli, tmp_path: Path) -> N
     run = json.loads((tmp_path / "03-sink.metrics.json").read_text())["runs"]["main"]
     assert "launch m/s" in done.stdout and "reach" in done.stdout
     assert format(run["max_depth"], ".6g") in done.stdout and format(run["reach"], ".6g") in done.stdout
+
+
+def test_a_table_sent_to_a_file_keeps_each_run_on_one_line(cli: Cli, tmp_path: Path,
+                                                          monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.delenv("COLUMNS", raising=False)  # no terminal and no width asked: a log file's width
+    done = cli("run", REPO / "configs" / "planar" / "card-house.yaml", "--set", "steps=2", "--out", tmp_path,
+               env={"STACKX_JIT": "0"})
+    assert done.returncode == 0, done.stderr
+    row = next(line for line in done.stdout.splitlines() if "card-house/" in line)
+    assert row.split()[:2] == ["card-house/main", "planar-warm-start"]
