@@ -6,11 +6,12 @@ cost decides how long a planar bench takes, and a step it cannot solve is a gap 
 default, for pyramids of 10 and 20 rows (the scene's ``pyramid`` generator), two runs of ``steps`` steps:
 ``planar-exact`` (a pile held at rest: the reference's own path) and ``planar-pgs`` at 10 iterations (a pile
 that sags and slides: the hard path), each watched by the planar step log; with ``--run CONFIG SOLVER KNOB``
-(repeatable; KNOB ``-`` for the solver's defaults), those runs instead. Printed per run: the median and the
-largest time per reference solve (failed ones included; ``planar-exact`` runs its own solve too), Newton
-rounds and sweeps per solved step, and the steps the reference could not solve of those the step log
-watched, with the run's RMS error; per pyramid, the ratio of the median solve on
-the sagging path to that on the held path, both measured in this one run. ``--proximal D`` solves with
+(repeatable), those runs instead, each as ``stackx bench`` runs it (the config's settings for the solver
+and its ``bench.set``; KNOB ``-``: the config's value of the knob, else the solver's default). Printed per
+run: the median and the largest time per reference solve (failed ones included; ``planar-exact`` runs its
+own solve too), Newton rounds and sweeps per solved step, and the steps the reference could not solve of those
+the step log watched, with the run's RMS error; per pyramid, the ratio of the median solve on the sagging path
+to that on the held path, both measured in this one run. ``--proximal D`` solves with
 another proximal weight (``stackx.models.planar.reference.PROXIMAL``), to see what it trades.
 """
 
@@ -23,26 +24,30 @@ import time
 from dataclasses import replace
 from pathlib import Path
 
-from stackx.bench.plan import knob_of
+from stackx.bench.plan import CASE, load_case
 from stackx.config import load
 from stackx.criteria import Criteria
 from stackx.kernel import compiled
 from stackx.models.planar import reference, step_problem
 from stackx.models.planar.error import StepLog
-from stackx.registry import solvers
 from stackx.runner import run_experiment
 
 
 def load_run(path: str, steps: int, solver: str, knob: int | None) -> object:
-    """The plan of ``path`` cut to one run of ``solver`` (at ``knob`` of its cost knob, else its defaults) for
-    ``steps`` steps."""
+    """The plan of ``path`` cut to one run of ``solver`` for ``steps`` steps, as ``stackx bench`` runs it (the
+    config's own settings when it names the solver, and its ``bench.set``), at ``knob`` of its cost knob (None:
+    the config's value for it, else the solver's default)."""
     spec = load(path)
-    cls = solvers.get(solver)
-    params = cls.Params()
-    name = knob_of(cls)
-    if knob is not None and name is not None:
-        params = cls.Params(**{name: knob})
-    spec.runs = [replace(spec.runs[0], solver_cls=cls, solver_params=params, steps=steps)]
+    case, left_out = load_case(spec, [solver])
+    if not case.plans:
+        raise SystemExit(f"{solver} does not run {path}: {left_out[solver]}")
+    (plan,) = case.plans
+    params = next(iter(plan.params[CASE].values()))
+    if plan.knob is not None:
+        value = knob if knob is not None else plan.own if plan.own is not None else getattr(plan.solver_cls.Params(),
+                                                                                              plan.knob)
+        params = params.model_copy(update={plan.knob: value})
+    spec.runs = [replace(spec.runs[0], solver_cls=plan.solver_cls, solver_params=params, steps=steps)]
     return spec
 
 
@@ -92,7 +97,7 @@ def main() -> None:
     parser.add_argument("--steps", type=int, default=60, help="steps per run")
     parser.add_argument("--rows", type=int, nargs="+", default=[10, 20], help="pyramid sizes")
     parser.add_argument("--run", nargs=3, action="append", metavar=("CONFIG", "SOLVER", "KNOB"),
-                        help="a run to measure instead of the pyramids (KNOB '-': the solver's defaults)")
+                        help="a run to measure instead of the pyramids, as the bench runs it (KNOB '-': the config's)")
     parser.add_argument("--proximal", type=float, default=reference.PROXIMAL,
                         help="the reference's proximal weight d (what it trades: reference.py's module text)")
     args = parser.parse_args()

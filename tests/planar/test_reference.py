@@ -197,16 +197,22 @@ def test_the_sweeps_run_plain_and_compiled_to_the_same_bits() -> None:
     assert out[0][0].sum() > 0.0
 
 
-def _recorded_steps() -> list[tuple[ContactProblem, np.ndarray, np.ndarray]]:
-    """Four steps of ``planar-xpbd`` (16 substeps) on ``stack-10``, as the bench set them to the reference, with
-    the impulses it started from: each has a face whose two points have different targets."""
+def _recorded(name: str) -> list[tuple[ContactProblem, np.ndarray, np.ndarray]]:
+    """The steps recorded in ``data/NAME.json`` (one or a list), as the bench set them to the reference, with the
+    impulses it started from."""
     import json
     from pathlib import Path
 
-    steps = json.loads((Path(__file__).parent / "data" / "stack_steps.json").read_text())
+    steps = json.loads((Path(__file__).parent / "data" / f"{name}.json").read_text())
     fields = ("inv_mass", "inv_inertia", "velocity", "body_a", "body_b", "normal", "ra", "rb", "friction", "target")
     return [(ContactProblem(*(np.array(s[f]) for f in fields)), np.array(s["pn"]), np.array(s["pt"]))
-            for s in steps]
+            for s in (steps if isinstance(steps, list) else [steps])]
+
+
+def _recorded_steps() -> list[tuple[ContactProblem, np.ndarray, np.ndarray]]:
+    """Four steps of ``planar-xpbd`` (16 substeps) on ``stack-10``: each has a face whose two points have different
+    targets."""
+    return _recorded("stack_steps")
 
 
 @pytest.mark.parametrize("index", range(4))
@@ -223,6 +229,23 @@ def test_a_face_that_cannot_stick_at_both_points_is_solved(index: int) -> None:
     assert np.array_equal(sol.velocity, velocities_after(p, sol.pn, sol.pt))
     slides = np.isclose(np.abs(sol.pt), p.friction * sol.pn, rtol=0, atol=1e-12) & (sol.pn > 1e-9)
     assert slides.any()
+
+
+def test_which_point_of_a_face_slides_is_tried_not_guessed(monkeypatch: pytest.MonkeyPatch) -> None:
+    # step 2 of stack-40 under planar-warm-start at 16 iterations, relaxation 1.9: the pile bounces, so 32 faces
+    # have a touching point and one closing a gap. Where both of a face's points are read sticking, they slip by
+    # nearly the same 1e-8 m/s; making the one that slips a hair more slide sent Newton off, and only Lemke's
+    # pivoting solved the step. Trying both and keeping the one whose round lands lower solves it by Newton.
+    (p, pn, pt), = _recorded("trembling_stack_step")
+    monkeypatch.setattr(reference, "LEMKE_POINTS", 0)
+    sol = solve(p, pn, pt)
+    assert residual(p, sol.pn, sol.pt) < 1e-10
+    slides = np.isclose(np.abs(sol.pt), p.friction * sol.pn, rtol=0, atol=1e-12) & (sol.pn > 1e-9)
+    faces: dict[tuple[int, int], list[int]] = {}
+    for k in range(p.points):
+        faces.setdefault((int(p.body_a[k]), int(p.body_b[k])), []).append(k)
+    split = [f for f in faces.values() if len(f) == 2 and slides[f].sum() == 1]  # one point slides, one sticks
+    assert len(split) >= 8
 
 
 def test_after_three_failed_steps_in_a_row_a_row_makes_only_its_first_try(monkeypatch: pytest.MonkeyPatch) -> None:
