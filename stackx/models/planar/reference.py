@@ -61,7 +61,7 @@ answer, and whose repeated rounds converge to an exact solution of the singular 
 shrinks the error along an eigenvector of the scaled Delassus matrix ``K^1/2 W K^1/2`` with eigenvalue
 ``lam`` by ``d / (lam + d)``. A tall stack's boxes tilting together give tiny ones (a step of ``stack-40``:
 4.6e-7, 1.8e-5, 1.4e-4), so at ``d = 1e-3`` those parts crawled (0.9995 a step), every Newton try stalled
-near 1e-7 m/s, and mostly only Lemke's pivoting, the last try, solved a step: 1.7 s a solve against 45 ms at
+near 1e-7 m/s, and mostly only Lemke's pivoting, the last try, solved a step: 2.7 s a solve against 29 ms at
 ``d = 1e-5``, where the first or second try lands (median over the first 40 steps under ``planar-warm-start``:
 ``python3 -m benchmarks.planar_reference --proximal D``). A smaller ``d`` lets a round on wrong modes, or on a
 face that cannot stick at both points, run off faster: at 1e-7, 3 of the first 150 steps of ``stack-10``
