@@ -44,8 +44,9 @@ def load_run(path: str, steps: int, solver: str, knob: int | None) -> object:
     (plan,) = case.plans
     params = next(iter(plan.params[CASE].values()))
     if plan.knob is not None:
-        value = knob if knob is not None else plan.own if plan.own is not None else getattr(plan.solver_cls.Params(),
-                                                                                              plan.knob)
+        value = knob if knob is not None else plan.own
+        if value is None:
+            value = getattr(plan.solver_cls.Params(), plan.knob)
         params = params.model_copy(update={plan.knob: value})
     spec.runs = [replace(spec.runs[0], solver_cls=plan.solver_cls, solver_params=params, steps=steps)]
     return spec

@@ -26,8 +26,8 @@ from stackx.errors import BlowUp, ConfigError, RunError, first_line
 from stackx.executor import Choice, open_executor
 from stackx.outdir import TIMING, OutputDir, failed_file, write_json
 from stackx.outputs import confine
-from stackx.screen import screen
 from stackx.results import ExperimentResult
+from stackx.screen import screen
 
 
 def run_all(specs: list[ExperimentSpec], out: Path, quiet: bool = False, wide: bool = False,

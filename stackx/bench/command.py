@@ -25,7 +25,6 @@ from stackx.outdir import OutputDir
 from stackx.screen import screen
 
 
-
 def load_cases(paths: list[str], solvers: list[str] | None, plugins: Path | None,
                sets: list[str] | None = None) -> list[tuple[Case, dict[str, str]]]:
     """Every config made a bench case (validated, ``--set`` applied, solvers planned), in command-line order."""
