@@ -76,6 +76,10 @@ def test_a_landing_step_where_newton_cycles_is_solved_by_pivoting(monkeypatch: p
     pn, pt = np.array(step["pn"]), np.array(step["pt"])
     sol = reference.solve(p, pn, pt)
     assert residual(p, sol.pn, sol.pt) < 1e-10
-    monkeypatch.setattr(reference, "LEMKE_POINTS", 0)  # Newton alone does not get there
+    assert sol.attempt == 4  # Lemke's walk, right after the three cheap Newton tries on a small problem
+    monkeypatch.setattr(reference, "LEMKE_POINTS", 0)
+    alone = reference.solve(p, pn, pt)  # without it, the proximal point method gets there too
+    assert residual(p, alone.pn, alone.pt) < 1e-10
+    monkeypatch.setattr(reference, "SETTLE_ROUNDS", 0)  # Newton rounds alone do not
     with pytest.raises(reference.ReferenceFailure, match="best residual"):
         reference.solve(p, pn, pt)

@@ -17,17 +17,19 @@ sliding tangent gives ``pt = +-mu pn``, a separating point gives ``pn = pt = 0``
    it, a quarter...; when no step does, more sweeps mend the modes. When the modes are right the answer is
    the solution up to rounding (semismooth Newton on the min-map, which converges locally in a few rounds);
 3. tries, each checked by the residual, cheap ones first: damped Newton from the warm start; full Newton
-   rounds from the warm start and from zero impulses, mending inconsistent mode systems (below); damped
-   Newton from zero (a warm start can sit on a corner of a pile's many equivalent load paths, where the
-   modes cycle) and full steps from zero allowed to raise the residual a few rounds in a row (they cross
-   regions where damped steps crawl); full and damped rounds with heavier proximal weights (``DAMPED``),
-   each going only part of the way to its modes' answer, which keeps a round from leaping far when the
-   modes read are wrong (which weight lands a step is hard to foretell: a step of ``stack-40`` that every
-   try at 1e-5 missed lands at 1e-3, 1e-4 and 1e-6 alike, so the heavier tries start at 1e-3);
+   rounds from the warm start and from zero impulses, mending inconsistent mode systems (below); the
+   proximal point method from the warm start (below); damped Newton from zero (a warm start can sit on a
+   corner of a pile's many equivalent load paths, where the modes cycle) and full steps from zero allowed
+   to raise the residual a few rounds in a row (they cross regions where damped steps crawl); full and
+   damped rounds with heavier proximal weights (``DAMPED``), each going only part of the way to its modes'
+   answer, which keeps a round from leaping far when the modes read are wrong (which weight lands a step is
+   hard to foretell: a step of ``stack-40`` that every try at 1e-5 missed lands at 1e-3, 1e-4 and 1e-6
+   alike, so the heavier tries start at 1e-3);
 4. Lemke's pivoting (``stackx.models.planar.lemke``) on problems up to ``LEMKE_POINTS`` points: on a box
    landing on a pile, where many points change mode at once and the Newton rounds cycle between two mode
    combinations; its answer is taken to the exact one by full Newton rounds. On small problems (up to
-   ``LEMKE_EARLY`` points) it comes right after the cheap tries, where it costs tens of milliseconds.
+   ``LEMKE_EARLY`` points) it comes right after the cheap tries (before the proximal point method), where it
+   costs tens of milliseconds.
 
 **Faces that cannot stick at both points.** The two points of a face whose targets differ (one touching,
 one closing a speculative gap) close at different normal speeds, so the face turns; as the points sit at
@@ -41,9 +43,26 @@ answer has one point of such a face at its bound and the other sticking. Which o
 slip nearly alike (1.6e-8 and 1.6e-8 m/s on a bouncing ``stack-40``, where the wrong one sent Newton off), so
 a round is tried with each and the one that lands lower is kept.
 
+**Piles whose Newton rounds leap: the proximal point method.** On a pile whose boxes sit a hair tilted
+(``pyramid-10`` under ``planar-xpbd`` at 16 substeps: a third of its faces have a touching point and one closing
+a gap) or that sags and slides, the modes read off swept impulses make mode systems whose answers lie at
+1e3 m/s: the rounds leap, and no fraction of such a step lowers the residual. The proximal point method never
+solves the true problem's mode systems until the end. Each of its outer rounds solves the *regularized*
+problem, whose velocities carry ``d (q - center)`` with the last round's answer as the center, by Newton
+rounds with a line search on that problem's own residual; the answers walk to an exact solution of the true
+problem. The regularized problem is well conditioned (strongly monotone without friction), so its Newton
+rounds do not leap, and its answer lies within about ``residual / d`` of the center. ``d`` starts at 1e-2,
+shrinks threefold after an outer round that took at most ``SETTLE_EASY`` Newton rounds (the walk speeds up
+as it nears the answer), and grows tenfold after one whose problem was not solved (that round is undone).
+Once the true residual is below ``POLISH``, full Newton rounds (mending faces, as above) try to land on the
+exact answer of the modes read there, and again whenever those modes change or the residual has fallen
+tenfold. With friction the regularized problem is not monotone, so the walk is not sure to end; it lands
+most steps every Newton try failed on (see the README's planar reference section for counts).
+
 **Where it may still fail.** A problem over ``LEMKE_POINTS`` points (a 20-row pyramid has 800) on which
-every Newton try cycles; the solve then raises (``ReferenceFailure`` with the best residual reached) and
-the bench counts the step as ``unsolved``, shown beside the error, never silently skipped.
+every Newton try cycles and the proximal point method wanders; the solve then raises (``ReferenceFailure``
+with the best residual reached) and the bench counts the step as ``unsolved``, shown beside the error, never
+silently skipped.
 
 **Why exact.** The answer is returned only once the contract's own measure, ``problem.residual`` of the
 final impulses (complementarity of every normal, the friction box of every tangent, velocities recomputed
@@ -96,6 +115,15 @@ REFINE = 30  # most proximal steps per Newton round (each a solve with the round
 QUICK = 2  # tries of a quick solve: damped, then full Newton rounds from the warm start
 WANDER = 3  # full Newton steps in a row that may leave the residual above the best (last try)
 MIN_STEP = 1.0 / 64  # the shortest Newton step tried before going back to sweeps
+SETTLE_START = 1e-2  # the proximal point method's first weight d
+SETTLE_SHRINK = 0.3  # d shrinks by this after a round whose regularized problem took at most SETTLE_EASY rounds
+SETTLE_EASY = 4
+SETTLE_FLOOR = 1e-9  # the smallest d
+SETTLE_ROUNDS = 300  # most outer rounds (each a regularized problem)
+SETTLE_NEWTON = 20  # most Newton rounds per regularized problem
+SETTLE_SHARE = 0.1  # a regularized problem is solved once its residual is this share of the contract's
+SETTLE_STEP = 1e-4  # the shortest step of its line search
+POLISH = 1e-6  # m/s: below this contract residual, the proximal point method's full Newton rounds try to land
 
 
 class ReferenceFailure(RuntimeError):
@@ -281,6 +309,61 @@ def solve(problem: ContactProblem, pn: np.ndarray | None = None, pt: np.ndarray 
                 last = now
         return None, best
 
+    def settle(q: np.ndarray, rounds: int) -> tuple[Solution | None, float]:
+        """The proximal point method from ``q``: each outer round solves the regularized problem whose
+        velocities carry ``d (q - center)`` (the center: the last round's answer) by Newton rounds with a line
+        search on its residual, and the answers walk to an exact solution. The weight ``d`` adapts: it
+        shrinks (``SETTLE_SHRINK``) after a round whose problem took few Newton rounds, so the walk speeds
+        up, and grows tenfold after one whose problem was not solved, which is then left. Once the
+        contract's residual is below ``POLISH``, ``rounds`` full Newton rounds try to land on the answer of
+        the modes read there, again each time the residual has fallen tenfold or the modes changed since."""
+        system = ModeSystem(problem, kn, kt, SETTLE_START)
+        best = polished = system.merit(q)
+        tried = None  # the modes the last full rounds started from
+        spent = 0  # Newton rounds of the regularized problems
+        for _ in range(SETTLE_ROUNDS):
+            center = q
+            aim = max(TOLERANCE * 1e-3, SETTLE_SHARE * system.merit(center))
+            now, solved = system.merit(q, center), False
+            for done in range(SETTLE_NEWTON + 1):
+                if now < aim:
+                    solved = True
+                    break
+                if done == SETTLE_NEWTON:
+                    break
+                target = system.step(q, center=center)
+                spent += 1
+                step = 1.0
+                while step >= SETTLE_STEP:  # the largest of 1, 1/2, ... that lowers the regularized residual
+                    trial = q + step * (target - q)
+                    after = system.merit(trial, center)
+                    if after < (1.0 - 1e-4 * step) * now:
+                        break
+                    step *= 0.5
+                if step < SETTLE_STEP:
+                    break
+                q, now = trial, after
+            if not solved:  # too little regularized to solve: back to the center, heavier
+                q, system.proximal = center, min(10.0 * system.proximal, 1.0)
+                continue
+            if done <= SETTLE_EASY:
+                system.proximal = max(SETTLE_SHRINK * system.proximal, SETTLE_FLOOR)
+            reached = system.merit(q)
+            best = min(best, reached)
+            if reached < TOLERANCE:
+                found = landed(q, spent)
+                if found is not None:
+                    return found, found.residual
+            modes = system.read(q)
+            if reached < POLISH and (reached < 0.1 * polished or not np.array_equal(modes, tried)):
+                polished, tried = reached, modes
+                newton.modes = None
+                found, _ = full(q, rounds)
+                if found is not None:
+                    found.rounds += spent
+                    return found, found.residual
+        return None, best
+
     def pivot() -> tuple[Solution | None, float]:
         """Lemke's pivoting (``stackx.models.planar.lemke``), each answer it ends on taken to the exact one by
         full Newton rounds."""
@@ -298,17 +381,18 @@ def solve(problem: ContactProblem, pn: np.ndarray | None = None, pt: np.ndarray 
     warm, zero = np.concatenate([pn / kn, pt / kt]), np.zeros(2 * m)
     starts = [warm, zero] if pn.any() or pt.any() else [warm]
     # every try is checked by the residual, so the order changes nothing but the cost: the cheap tries first,
-    # then (on small problems, where it costs a few tens of ms) Lemke's pivoting, then heavier Newton tries,
-    # and Lemke last on problems up to LEMKE_POINTS, where it may take seconds. A try: its proximal weight
-    # and what it runs.
+    # then (on small problems, where it costs a few tens of ms) Lemke's pivoting, then the proximal point
+    # method (seconds on a 20-row pyramid), then heavier Newton tries, and Lemke last on problems up to
+    # LEMKE_POINTS, where it may take seconds. A try: its proximal weight and what it runs.
     cheap = [(PROXIMAL, partial(attempt, warm, rounds, 0))]
     cheap += [(PROXIMAL, partial(full, start, 2 * rounds)) for start in starts]
     heavy = [(PROXIMAL, partial(attempt, zero, rounds, 0))] * (len(starts) - 1)
     heavy += [(PROXIMAL, partial(attempt, zero, rounds, WANDER))]
     for d in DAMPED:
         heavy += [(d, partial(full, warm, 2 * rounds)), (d, partial(attempt, warm, rounds, 0))]
+    walk = [(PROXIMAL, partial(settle, warm, 2 * rounds))]
     lemke = [(PROXIMAL, pivot)] if m <= LEMKE_POINTS else []
-    tries = cheap + lemke + heavy if m <= LEMKE_EARLY else cheap + heavy + lemke
+    tries = cheap + lemke + walk + heavy if m <= LEMKE_EARLY else cheap + walk + heavy + lemke
     if quick:
         tries = tries[:QUICK]
     best = np.inf
@@ -356,16 +440,18 @@ class ModeSystem:
         self.mu = problem.friction
         self.modes: np.ndarray | None = None
         self.kept = False
-        self.proximal = proximal
+        self.proximal = proximal  # the weight d; may be changed between rounds (the factorization follows)
+        self.factored = proximal
         self.sparse = sparse
 
-    def merit(self, q: np.ndarray) -> float:
+    def merit(self, q: np.ndarray, center: np.ndarray | None = None) -> float:
         """The contract's residual (m/s) of scaled impulses ``q``, from ``W`` (the min map of every normal,
         the friction box of every tangent): cheap, for the line search; the answer is checked by
-        ``problem.residual``."""
+        ``problem.residual``. With a ``center``, the residual of the regularized problem whose velocities
+        carry the proximal term ``d (q - center)`` (see ``step``)."""
         m = self.m
         with np.errstate(over="ignore", invalid="ignore"):  # a step run off to infinity: merit inf
-            gap = self.gap(q)
+            gap = self.gap(q, center)
             qn, qt = q[:m], q[m:]
             bound = self.cone * qn
             normal = np.abs(np.minimum(qn, gap[:m]))
@@ -373,32 +459,44 @@ class ModeSystem:
             worst = max(normal.max(), tangent.max())
         return worst if np.isfinite(worst) else np.inf
 
-    def gap(self, q: np.ndarray) -> np.ndarray:
-        """``J v - target`` (m/s) for the velocities of scaled impulses ``q``."""
+    def gap(self, q: np.ndarray, center: np.ndarray | None = None) -> np.ndarray:
+        """``J v - target`` (m/s) for the velocities of scaled impulses ``q``, plus ``d (q - center)`` with a
+        ``center``."""
         v = self.v0[self.free_dof] + self.inv * (self.j_free.T @ (self.k * q))
-        return self.j_free @ v + self.fixed_u - self.target
+        gap = self.j_free @ v + self.fixed_u - self.target
+        return gap if center is None else gap + self.proximal * (q - center)
 
-    def step(self, q: np.ndarray, slide: dict[int, float] | None = None) -> np.ndarray:
-        """One Newton round: the modes read at ``q``, and the scaled impulses that solve that mode
-        combination, by proximal steps from ``q`` (with a singular system, the answer nearest ``q``).
-        ``slide`` (point: +-1) puts those held points in that sliding mode whatever ``q`` says.
-        ``kept`` says the modes were the last round's, whose factorization is reused."""
-        from scipy.sparse.linalg import splu
-
-        sparse, m = self.sparse, self.m
-        gap = self.gap(q)
+    def read(self, q: np.ndarray, center: np.ndarray | None = None) -> np.ndarray:
+        """The modes at ``q``, as ``(held, plus, minus)`` flags over the points, concatenated: held when
+        ``qn > un - target``; sliding (plus or minus) when ``qt - ut`` leaves the friction box."""
+        m = self.m
+        gap = self.gap(q, center)
         qn, qt = q[:m], q[m:]
         held = qn > gap[:m]
         z = qt - gap[m:]
-        plus = held & (z > self.cone * qn)
-        minus = held & (z < -self.cone * qn)
+        return np.concatenate([held, held & (z > self.cone * qn), held & (z < -self.cone * qn)])
+
+    def step(self, q: np.ndarray, slide: dict[int, float] | None = None,
+             center: np.ndarray | None = None) -> np.ndarray:
+        """One Newton round: the modes read at ``q``, and the scaled impulses that solve that mode
+        combination, by proximal steps from ``q`` (with a singular system, the answer nearest ``q``).
+        ``slide`` (point: +-1) puts those held points in that sliding mode whatever ``q`` says.
+        With a ``center``, the round is one of the regularized problem instead (the proximal term
+        ``d (q - center)`` added to every velocity): modes read with that term, and one solve, which is
+        that mode combination's exact answer (the regularized system is never singular).
+        ``kept`` says the modes (and weight) were the last round's, whose factorization is reused."""
+        from scipy.sparse.linalg import splu
+
+        sparse, m = self.sparse, self.m
+        modes = self.read(q, center)
+        held, plus, minus = modes[:m], modes[m:2 * m], modes[2 * m:]
         for i, sign in (slide or {}).items():
             if held[i]:
                 plus[i], minus[i] = sign > 0, sign < 0
-        modes = np.concatenate([held, plus, minus])
-        self.kept = self.modes is not None and np.array_equal(modes, self.modes)
+        self.kept = (self.modes is not None and np.array_equal(modes, self.modes)
+                     and self.factored == self.proximal)
         if not self.kept:
-            self.modes = modes
+            self.modes, self.factored = modes, self.proximal
             stick = held & ~plus & ~minus
             self.free = free = np.flatnonzero(np.concatenate([held, stick]))
             self.sign = np.where(plus, 1.0, np.where(minus, -1.0, 0.0))
@@ -422,11 +520,12 @@ class ModeSystem:
         free = self.free
         base = self.target[free] - self.fixed_u[free]
         momentum = self.v0[self.free_dof] / self.inv
-        out = q[free]
+        out = (q if center is None else center)[free]
         # a wrong mode combination's system may have no answer, and its proximal steps then run off to
         # infinity: that is expected, and the caller's merit (inf or NaN) rejects the step
         with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
-            for _ in range(REFINE):  # proximal steps on one factorization: they converge to the modes' answer
+            # proximal steps on one factorization converge to the modes' answer; with a center, one step is it
+            for _ in range(REFINE if center is None else 1):
                 h = base + self.proximal * out
                 v = self.factors.solve(momentum + self.g @ h / self.proximal)
                 new = (h - self.j_rows @ v) / self.proximal
