@@ -283,26 +283,29 @@ def test_a_pile_every_newton_try_cycles_on_is_solved_by_proximal_points() -> Non
     assert sol.attempt == 4
 
 
-def test_after_three_failed_steps_in_a_row_a_row_makes_only_its_first_try(monkeypatch: pytest.MonkeyPatch) -> None:
+def test_after_three_failed_steps_in_a_row_a_row_makes_only_its_quick_tries(monkeypatch: pytest.MonkeyPatch) -> None:
     from stackx.models.planar import step_problem as sp
 
     asked: list[bool] = []
-    outcomes = iter([False, False, False, False, True, False])  # False: the solve fails
+    # the best residual each solve reaches: above the tolerance it fails; a near miss (5e-10) is not counted
+    outcomes = iter([1e-3, 5e-10, 1e-3, 1e-3, 1e-3, 0.0, 1e-3])
 
     def scripted(problem: ContactProblem, pn: np.ndarray, pt: np.ndarray, quick: bool = False):
         asked.append(quick)
-        if not next(outcomes):
-            raise ReferenceFailure("scripted")
+        best = next(outcomes)
+        if best > 1e-10:
+            raise ReferenceFailure("scripted", best)
         return solve(problem, pn, pt)
 
     monkeypatch.setattr(sp, "solve", scripted)
     s = pyramid(3)
     reference = ReferenceStep(1, s.bodies)
-    for _ in range(6):
+    for _ in range(7):
         try:
             reference.solve(0, s.x[0], s.y[0], s.angle[0], s.vx[0], s.vy[0], s.w[0], s.inv_mass[0],
                             s.inv_inertia[0], s.hx[0], s.hy[0], s.friction[0], -9.8, 1 / 60, 0.02)
         except ReferenceFailure:
             pass
-    # three full solves fail; the fourth and fifth are quick; the fifth lands, so the sixth is full again
-    assert asked == [False, False, False, True, True, False]
+    # four full solves fail, one of them a near miss; the fifth and sixth are quick; the sixth lands, so the
+    # seventh is full again
+    assert asked == [False, False, False, False, True, True, False]

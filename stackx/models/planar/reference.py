@@ -127,7 +127,11 @@ POLISH = 1e-6  # m/s: below this contract residual, the proximal point method's 
 
 
 class ReferenceFailure(RuntimeError):
-    """The reference solve did not reach its tolerance (with the residual it reached)."""
+    """The reference solve did not reach its tolerance; ``best``: the least residual it reached (m/s)."""
+
+    def __init__(self, message: str, best: float = float("inf")) -> None:
+        super().__init__(message)
+        self.best = best
 
 
 @dataclass
@@ -407,7 +411,7 @@ def solve(problem: ContactProblem, pn: np.ndarray | None = None, pt: np.ndarray 
         best = min(best, reached)
     raise ReferenceFailure(f"the contact problem ({m} points, {n} bodies) was not solved to {tolerance:g} m/s "
                            f"in {len(tries)} tries ({rounds} damped or {2 * rounds} full Newton rounds each"
-                           f"{', Lemke pivoting' if lemke else ''}) and {swept} sweeps: best residual {best:.3g} m/s")
+                           f"{', Lemke pivoting' if lemke else ''}) and {swept} sweeps: best residual {best:.3g} m/s", best)
 
 
 class ModeSystem:

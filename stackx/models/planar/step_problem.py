@@ -36,6 +36,7 @@ from stackx.solvers.planar.contacts import (A, B, DEPTH, MU, NX, NY, PN, PT, RAX
                                             set_targets)
 
 MISSES = 3  # failed solves in a row after which a row's solves make only their quick tries
+NEAR_MISS = 1e-8  # m/s: a failed solve whose best residual is below this does not count toward MISSES
 
 
 @kernel
@@ -117,8 +118,9 @@ class ReferenceStep:
         self.problem = problem = as_problem(self.ids, self.table, count, inv_mass, inv_inertia, vx, vy, w)
         try:
             found = solve(problem, self.table[:count, PN], self.table[:count, PT], quick=self.missed[b] >= MISSES)
-        except ReferenceFailure:
-            self.missed[b] += 1
+        except ReferenceFailure as failure:
+            if failure.best > NEAR_MISS:  # a near miss says the full tries work on this run: it is not counted
+                self.missed[b] += 1
             raise
         self.missed[b] = 0
         self.table[:count, PN], self.table[:count, PT] = found.pn, found.pt
