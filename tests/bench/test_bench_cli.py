@@ -6,6 +6,7 @@ import base64
 import hashlib
 import html
 import json
+import math
 import re
 import subprocess
 import sys
@@ -357,11 +358,37 @@ def test_every_solver_has_one_colour_everywhere(bench_out: Path, doc: dict) -> N
         case = next(c for c in doc["cases"] if c["name"] == name)
         _, _, picture = read_png(base64.b64decode(src.split(",", 1)[1]))
         pixels = {p for row in picture for p in row}
-        drawn = {r["solver"] for r in case["records"] if r["variant"] == "case" and not r["reference"]
-                 and not r["crushed"] and not r["blew_up"] and r["error"]["rms"] is not None}
+        runs = [r for r in case["records"] if r["variant"] == "case" and not r["reference"]
+                and not r["crushed"] and not r["blew_up"] and r["error"]["rms"] is not None]
+        drawn = list(dict.fromkeys(r["solver"] for r in runs))
         for solver in drawn:
             c = next(iter(colours[solver]))
-            assert tuple(int(c[i:i + 2], 16) for i in (1, 3, 5)) in pixels, (name, solver, c)
+            if tuple(int(c[i:i + 2], 16) for i in (1, 3, 5)) not in pixels:
+                # only where a solver drawn later put its marker on this one's (the same error, timings within
+                # the marker's few pixels) may the colour be hidden
+                assert _covered(case, runs, solver, drawn), (name, solver, c)
+
+
+def _covered(case: dict, runs: list[dict], solver: str, order: list[str]) -> bool:
+    """Whether a marker of ``solver`` on the case's speed plot lies within 3 pixels (both ways) of a marker of a
+    solver drawn after it: the axes span the timed runs and the reference by 1.35x each side (637 x 373 pixels
+    of axes), and the errors by 2.2x (8.8x below when some run is as exact as the reference)."""
+    ref = [r["us_per_step"] for r in case["records"] if r["variant"] == "case" and r["reference"]
+           and r["us_per_step"] is not None and not r["crushed"] and not r["blew_up"]]
+    xs = [r["us_per_step"] for r in runs] + ref
+    errors = [r["error"]["rms"] for r in runs]
+    above = [e for e in errors if e >= 1e-12] or [1e-3]
+    low = min(above) / (8.8 if len(above) < len(errors) else 2.2)
+    x_span = math.log(max(xs) * 1.35) - math.log(min(xs) / 1.35)
+    y_span = math.log(max(above) * 2.2) - math.log(low)
+
+    def pixel(r: dict) -> tuple[float, float]:
+        y = max(r["error"]["rms"], min(above) / 4)
+        return 637 * math.log(r["us_per_step"]) / x_span, 373 * math.log(y) / y_span
+
+    later = [pixel(r) for r in runs if order.index(r["solver"]) > order.index(solver)]
+    return any(abs(x - u) <= 3 and abs(y - v) <= 3 for r in runs if r["solver"] == solver
+               for x, y in [pixel(r)] for u, v in later)
 
 
 def test_table_headers_carry_units(bench_out: Path) -> None:
