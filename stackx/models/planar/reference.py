@@ -93,6 +93,7 @@ on the same machine. It is the one place scipy is used (a new dependency).
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from functools import partial
 
@@ -188,6 +189,20 @@ def project_sweeps(body_a: np.ndarray, body_b: np.ndarray, normal: np.ndarray, r
                     v[a, 2] -= inv_inertia[a] * delta * (ra[k, 0] * dy - ra[k, 1] * dx)
 
 
+def backtrack(merit: Callable[[np.ndarray], float], q: np.ndarray, target: np.ndarray, now: float, step: float,
+              shortest: float) -> tuple[np.ndarray, float] | None:
+    """The point ``q + s (target - q)`` for the largest ``s`` of ``step``, ``step / 2``, ... down to
+    ``shortest`` whose ``merit`` falls below ``(1 - 1e-4 s) now`` (Armijo's rule), with that merit; None when
+    none does."""
+    while step >= shortest:
+        trial = q + step * (target - q)
+        after = merit(trial)
+        if after < (1.0 - 1e-4 * step) * now:
+            return trial, after
+        step *= 0.5
+    return None
+
+
 def solve(problem: ContactProblem, pn: np.ndarray | None = None, pt: np.ndarray | None = None,
           tolerance: float = TOLERANCE, sweeps: int = SWEEPS, rounds: int = ROUNDS, quick: bool = False) -> Solution:
     """Solve ``problem`` to ``residual < tolerance`` (m/s), starting from impulses ``pn``, ``pt`` (a warm
@@ -257,15 +272,9 @@ def solve(problem: ContactProblem, pn: np.ndarray | None = None, pt: np.ndarray 
                 if wander:
                     q, now, wandering = best_q, best, 0  # back to the best answer
                     target = newton.step(q)
-                step = 0.5
-                while step >= MIN_STEP:  # the largest of 1/2, 1/4, ... that lowers the residual
-                    trial = q + step * (target - q)
-                    after = newton.merit(trial)
-                    if after < (1.0 - 1e-4 * step) * now:
-                        break
-                    step *= 0.5
-                if after < (1.0 - 1e-4 * step) * now:
-                    q, now = trial, after
+                lower = backtrack(newton.merit, q, target, now, 0.5, MIN_STEP)
+                if lower is not None:
+                    q, now = lower
                 else:  # Newton makes no progress here: mend the modes by sweeps
                     q = sweep(q, 0.5 * now)
                     now = newton.merit(q)
@@ -322,32 +331,23 @@ def solve(problem: ContactProblem, pn: np.ndarray | None = None, pt: np.ndarray 
         contract's residual is below ``POLISH``, ``rounds`` full Newton rounds try to land on the answer of
         the modes read there, again each time the residual has fallen tenfold or the modes changed since."""
         system = ModeSystem(problem, kn, kt, SETTLE_START)
-        best = polished = system.merit(q)
+        best = polished = reached = system.merit(q)  # reached: the contract's residual at q
         tried = None  # the modes the last full rounds started from
         spent = 0  # Newton rounds of the regularized problems
         for _ in range(SETTLE_ROUNDS):
             center = q
-            aim = max(TOLERANCE * 1e-3, SETTLE_SHARE * system.merit(center))
-            now, solved = system.merit(q, center), False
+            aim = max(TOLERANCE * 1e-3, SETTLE_SHARE * reached)
+            now = system.merit(q, center)
             for done in range(SETTLE_NEWTON + 1):
-                if now < aim:
-                    solved = True
-                    break
-                if done == SETTLE_NEWTON:
+                if now < aim or done == SETTLE_NEWTON:
                     break
                 target = system.step(q, center=center)
                 spent += 1
-                step = 1.0
-                while step >= SETTLE_STEP:  # the largest of 1, 1/2, ... that lowers the regularized residual
-                    trial = q + step * (target - q)
-                    after = system.merit(trial, center)
-                    if after < (1.0 - 1e-4 * step) * now:
-                        break
-                    step *= 0.5
-                if step < SETTLE_STEP:
+                lower = backtrack(partial(system.merit, center=center), q, target, now, 1.0, SETTLE_STEP)
+                if lower is None:
                     break
-                q, now = trial, after
-            if not solved:  # too little regularized to solve: back to the center, heavier
+                q, now = lower
+            if now >= aim:  # too little regularized to solve: back to the center, heavier
                 q, system.proximal = center, min(10.0 * system.proximal, 1.0)
                 continue
             if done <= SETTLE_EASY:
@@ -358,8 +358,8 @@ def solve(problem: ContactProblem, pn: np.ndarray | None = None, pt: np.ndarray 
                 found = landed(q, spent)
                 if found is not None:
                     return found, found.residual
-            modes = system.read(q)
-            if reached < POLISH and (reached < 0.1 * polished or not np.array_equal(modes, tried)):
+            modes = system.read(q) if reached < POLISH else None
+            if modes is not None and (reached < 0.1 * polished or not np.array_equal(modes, tried)):
                 polished, tried = reached, modes
                 newton.modes = None
                 found, _ = full(q, rounds)
