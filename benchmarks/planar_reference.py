@@ -9,10 +9,11 @@ that sags and slides: the hard path), each watched by the planar step log; with 
 (repeatable), those runs instead, each as ``stackx bench`` runs it (the config's settings for the solver
 and its ``bench.set``; KNOB ``-``: the config's value of the knob, else the solver's default). Printed per
 run: the median and the largest time per reference solve (failed ones included; ``planar-exact`` runs its
-own solve too), Newton rounds and sweeps per solved step, and the steps the reference could not solve of those
-the step log watched, with the run's RMS error; per pyramid, the ratio of the median solve on the sagging path
-to that on the held path, both measured in this one run. ``--proximal D`` solves with
-another proximal weight (``stackx.models.planar.reference.PROXIMAL``), to see what it trades.
+own solve too) and their sum (what the run's reference solves add to a bench), Newton rounds and sweeps per
+solved step, and the steps the reference could not solve of those the step log watched, with the run's RMS
+error; per pyramid, the ratio of the median solve on the sagging path to that on the held path, both measured
+in this one run. ``--proximal D`` solves with another proximal weight
+(``stackx.models.planar.reference.PROXIMAL``), to see what it trades.
 """
 
 from __future__ import annotations
@@ -81,6 +82,7 @@ def measure(path: str, steps: int, solver: str, knob: int | None) -> dict[str, f
     timed_solves = solves[1:] or solves  # the first includes loading compiled code
     error = row.error()
     return {"median_ms": 1e3 * statistics.median(timed_solves), "max_ms": 1e3 * max(timed_solves),
+            "total_s": sum(solves),
             "rounds": statistics.mean(r for r, _ in work) if work else 0.0,
             "sweeps": statistics.mean(s for _, s in work) if work else 0.0,
             "unsolved": error["unsolved"], "logged": error["steps"] + error["unsolved"], "rms": error["rms"],
@@ -89,7 +91,8 @@ def measure(path: str, steps: int, solver: str, knob: int | None) -> dict[str, f
 
 def line(name: str, m: dict[str, float]) -> str:
     rms = "-" if m["rms"] is None else f"{m['rms']:.4g}"
-    return (f"{name:<52}{m['median_ms']:>10.1f}{m['max_ms']:>10.1f}{m['rounds']:>8.1f}{m['sweeps']:>8.0f}"
+    return (f"{name:<52}{m['median_ms']:>10.1f}{m['max_ms']:>10.1f}{m['total_s']:>9.1f}{m['rounds']:>8.1f}"
+            f"{m['sweeps']:>8.0f}"
             f"{m['unsolved']:>6d}/{m['logged']:<5d}{rms:>10}")
 
 
@@ -103,7 +106,7 @@ def main() -> None:
                         help="the reference's proximal weight d (what it trades: reference.py's module text)")
     args = parser.parse_args()
     reference.PROXIMAL = args.proximal
-    print(f"{'run':<52}{'ms/solve':>10}{'max ms':>10}{'rounds':>8}{'sweeps':>8}{'unsolved':>12}{'rms m/s':>10}")
+    print(f"{'run':<52}{'ms/solve':>10}{'max ms':>10}{'total s':>9}{'rounds':>8}{'sweeps':>8}{'unsolved':>12}{'rms m/s':>10}")
     if args.run:
         for path, solver, knob in args.run:
             m = measure(path, args.steps, solver, None if knob == "-" else int(knob))
