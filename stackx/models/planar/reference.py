@@ -214,7 +214,8 @@ def solve(problem: ContactProblem, pn: np.ndarray | None = None, pt: np.ndarray 
     """Solve ``problem`` to ``residual < tolerance`` (m/s), starting from impulses ``pn``, ``pt`` (a warm
     start, e.g. the last step's by feature; zeros when None). ``begin``: the try (numbered as
     ``Solution.attempt``) to make first, the ones before it coming last: the try that landed the last step of
-    the same run, which most likely lands this one too (the order changes only the cost). ``quick``: the first
+    the same run, which most likely lands this one too (the order changes only the cost; a number names the
+    same try as long as the problem stays on the same side of ``LEMKE_EARLY`` points). ``quick``: the first
     ``QUICK`` tries of that order only, the proximal point method's walk cut to ``SETTLE_QUICK`` rounds (see
     ``step_problem.ReferenceStep``: after steps in a row that every try failed). Raises ``ReferenceFailure``
     when no try gets there (see the module text for the method)."""
