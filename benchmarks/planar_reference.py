@@ -92,8 +92,7 @@ def measure(path: str, steps: int, solver: str, knob: int | None) -> dict[str, f
 def line(name: str, m: dict[str, float]) -> str:
     rms = "-" if m["rms"] is None else f"{m['rms']:.4g}"
     return (f"{name:<52}{m['median_ms']:>10.1f}{m['max_ms']:>10.1f}{m['total_s']:>9.1f}{m['rounds']:>8.1f}"
-            f"{m['sweeps']:>8.0f}"
-            f"{m['unsolved']:>6d}/{m['logged']:<5d}{rms:>10}")
+            f"{m['sweeps']:>8.0f}{m['unsolved']:>6d}/{m['logged']:<5d}{rms:>10}")
 
 
 def main() -> None:
@@ -106,7 +105,8 @@ def main() -> None:
                         help="the reference's proximal weight d (what it trades: reference.py's module text)")
     args = parser.parse_args()
     reference.PROXIMAL = args.proximal
-    print(f"{'run':<52}{'ms/solve':>10}{'max ms':>10}{'total s':>9}{'rounds':>8}{'sweeps':>8}{'unsolved':>12}{'rms m/s':>10}")
+    print(f"{'run':<52}{'ms/solve':>10}{'max ms':>10}{'total s':>9}{'rounds':>8}{'sweeps':>8}{'unsolved':>12}"
+          f"{'rms m/s':>10}")
     if args.run:
         for path, solver, knob in args.run:
             m = measure(path, args.steps, solver, None if knob == "-" else int(knob))

@@ -281,12 +281,13 @@ def test_a_pile_every_newton_try_cycles_on_is_solved_by_proximal_points() -> Non
     sol = solve(p, pn, pt)
     assert residual(p, sol.pn, sol.pt) < 1e-10
     assert sol.attempt == 4
-    # begun at the try that landed it (as a run does after a step that try landed), the same answer, sooner
+    # begun at the try that landed it (as a run does after a step that try landed): the same answer
     again = solve(p, pn, pt, begin=4)
     assert again.attempt == 4 and np.array_equal(again.pn, sol.pn) and np.array_equal(again.pt, sol.pt)
 
 
-def test_a_quick_solve_makes_the_first_two_tries_of_its_order_with_a_short_walk(monkeypatch: pytest.MonkeyPatch) -> None:
+def test_a_quick_solve_makes_the_first_two_tries_of_its_order_with_a_short_walk(
+        monkeypatch: pytest.MonkeyPatch) -> None:
     from stackx.models.planar import reference
 
     (p, pn, pt), = _recorded("xpbd_pyramid_step")
