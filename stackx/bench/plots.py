@@ -11,6 +11,9 @@ from ``stackx.bench.palette`` in every picture.
   the height to nothing. It is a dashed vertical line at its time per step. Runs whose error is below
   ``AS_EXACT`` (rounding: they solved every step as the reference did) sit on a thin band at the bottom
   of the axis, just under the smallest error above it, so the axis spans only the errors that differ.
+  Markers that would land on each other (two solvers with the same error at nearly the same speed, as when
+  both solve every step exactly) are drawn as concentric rings: each is widened by ``RING`` points for every
+  marker drawn over it, so no solver's run is hidden under another's.
 - **Against time**, one per case: two small panels side by side, the top box's height and the largest
   contact depth, one line per solver at the knob value the summary shows (``compare.chosen``): solid
   where it passed, dashed where it failed, with the rigid rest height and the depth limit as dotted lines.
@@ -30,6 +33,8 @@ from stackx.bench.sweep import Record
 
 AS_EXACT = 1e-12  # m/s: an RMS error below this is the rounding of two ways to the same solve
 DEPTH_FLOOR = 0.01  # share of the depth limit below which a depth is drawn at the bottom of its log axis
+MARKER = 6.0  # points: the size of a speed plot's marker
+RING = 3.5  # points: how much a marker widens for each marker of another solver drawn over it
 
 
 def _pyplot() -> Any:
@@ -76,18 +81,23 @@ def speed_error_png(title: str, records: list[Record]) -> bytes | None:
             ax.axhspan(band / 2.2, band * 1.8, color="0.93", zorder=0, lw=0)
             ax.text(0.01, band * 1.25, f"error < {AS_EXACT:g} m/s: every step as exact solves it (rounding)",
                     transform=ax.get_yaxis_transform(), fontsize=7, color="0.35", va="bottom")
+        fig.subplots_adjust(left=0.12, right=0.97, bottom=0.12, top=0.93)  # fixed: tight_layout costs a second
+        markers = []  # (solver, record, x, y as drawn), in drawing order
         for solver in dict.fromkeys(r.solver for r in points):
             recs = sorted((r for r in points if r.solver == solver), key=lambda r: r.value or 0)
             xs = [float(r.us_per_step) for r in recs]  # type: ignore[arg-type]
             ys = [float(r.error["rms"]) for r in recs]
             shown = [y if y >= AS_EXACT else band for y in ys]
+            ax.plot(xs, shown, "-", color=colour(solver), lw=1.2, label=solver)
+            markers += [(solver, r, x, y) for r, x, y in zip(recs, xs, shown)]
+        sizes = marker_sizes(ax.transData.transform([(x, y) for _, _, x, y in markers]),
+                             [solver for solver, *_ in markers], fig.dpi)
+        for (solver, r, x, y), size in zip(markers, sizes):
             c = colour(solver)
-            ax.plot(xs, shown, "-", color=c, lw=1.2, label=solver)
-            for r, x, y, raw in zip(recs, xs, shown, ys):
-                ax.plot([x], [y], "v" if raw < AS_EXACT else "o", ms=6, mec=c, mfc=c if r.passed else "white",
-                        mew=1.4)
-                if r.knob is not None:
-                    ax.annotate(str(r.value), (x, y), textcoords="offset points", xytext=(4, 3), fontsize=7, color=c)
+            ax.plot([x], [y], "v" if float(r.error["rms"]) < AS_EXACT else "o", ms=size, mec=c,
+                    mfc=c if r.passed else "white", mew=1.4)
+            if r.knob is not None:
+                ax.annotate(str(r.value), (x, y), textcoords="offset points", xytext=(4, 3), fontsize=7, color=c)
         front = pareto(points)
         if front:
             fx = [float(r.us_per_step) for r in front]  # type: ignore[arg-type]
@@ -103,10 +113,23 @@ def speed_error_png(title: str, records: list[Record]) -> bytes | None:
         ax.set_title(f"{title}: speed against error (filled: passed the case, hollow: failed)", fontsize=10)
         ax.grid(True, which="both", lw=0.3, alpha=0.5)
         ax.legend(fontsize=7.5, loc="best")
-        fig.subplots_adjust(left=0.12, right=0.97, bottom=0.12, top=0.93)  # fixed: tight_layout costs a second
         return _png(fig)
     finally:
         plt.close(fig)
+
+
+def marker_sizes(pixels: Any, solvers: list[str], dpi: float) -> list[float]:
+    """The size (points) of each marker, given in drawing order with its centre in pixels: ``MARKER``, plus
+    ``RING`` for every marker of another solver drawn later whose centre lies within a marker's width of it.
+    A marker drawn over another then leaves a ring of the one below visible (same error, same speed: the
+    reader sees both solvers), while markers apart keep the one size."""
+    width = MARKER * dpi / 72.0  # a marker's width in pixels
+    sizes = []
+    for i, (x, y) in enumerate(pixels):
+        over = sum(1 for j in range(i + 1, len(solvers)) if solvers[j] != solvers[i]
+                   and math.hypot(pixels[j][0] - x, pixels[j][1] - y) < width)
+        sizes.append(MARKER + RING * over)
+    return sizes
 
 
 def rest_height(records: list[Record]) -> float | None:
