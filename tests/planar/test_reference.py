@@ -319,6 +319,27 @@ def test_what_makes_the_xpbd_pile_hard_is_its_points_closing_a_hair_gap() -> Non
     assert without(hair) == 1
 
 
+def test_a_loop_of_held_faces_whose_targets_disagree_by_a_hair_is_solved_by_a_forced_slide(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    # step 103 of pyramid-10 under planar-xpbd at 16 substeps: box 35 sits on 40 and 41, each resting on 45 on one
+    # point that closes a hair gap (targets -7.5e-5 and -6.4e-5 m/s). Sticking, those faces make a closed loop
+    # whose targets disagree by a few 1e-10 m/s, so every try stalls just above the tolerance, the error shared
+    # out around the loop. The exact answer has a point of the loop sliding; probing the stall with one forced
+    # slide per point, those slipping most first, finds it (the hair point of 40 on 45, the second probed).
+    from stackx.models.planar import reference
+
+    (p, pn, pt), = _recorded("xpbd_pyramid_loop_step")
+    monkeypatch.setattr(reference, "PROBES", 0)
+    with pytest.raises(ReferenceFailure) as stalled:
+        solve(p, pn, pt, begin=4)
+    assert 1e-10 < stalled.value.best < 3e-10
+    monkeypatch.undo()
+    sol = solve(p, pn, pt, begin=4)
+    assert residual(p, sol.pn, sol.pt) < 1e-10 and sol.attempt == 4
+    hair = int(np.flatnonzero((p.body_a == 40) & (p.body_b == 45) & (p.target < 0.0) & (p.target > -1e-4))[0])
+    assert abs(sol.pt[hair]) == pytest.approx(p.friction[hair] * sol.pn[hair], rel=1e-12) and sol.pn[hair] > 0.1
+
+
 def _solve_steps(reference: ReferenceStep, row: int, steps: int) -> None:
     """``steps`` solves of a 3-row pyramid's first step as row ``row`` of ``reference``, failed ones passed over."""
     s = pyramid(3)

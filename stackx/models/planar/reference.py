@@ -59,14 +59,25 @@ exact answer of the modes read there, and again whenever those modes change or t
 tenfold. With friction the regularized problem is not monotone, so the walk is not sure to end; it lands
 most steps every Newton try failed on (see the README's planar reference section for counts).
 
+**Loops of held faces: probing the stall.** On a pile seen through a speculative margin (``planar-xpbd``'s
+5 cm), a box sitting a hair tilted may rest on one point that closes a gap of a few micrometres (a target of a
+few 1e-5 m/s). Where such faces and sticking ones close a loop (box 35 on 40 and 41, each on 45 by such a
+point, on recorded ``pyramid-10`` steps), the loop's held normals and sticking tangents fix its bodies'
+motion twice over, and their targets disagree by a hair: every try stalls just above the tolerance
+(2.3e-10 m/s), the error shared out around the loop, and face mending, which looks at one face, does not get
+out. The exact answer has one point of the loop sliding, friction at its bound, which frees the loop; which
+one is not told by the residuals (the one that lands slipped second most there). So ``probe`` tries them:
+once a try has come below ``PROBE_NEAR`` without landing, each sticking point on a body of a point whose
+residual is above the tolerance, those slipping most first (at most ``PROBES``), is made to slide against
+its slip for good (``ModeSystem.forced``), and full Newton rounds from the closest answer try to land; the
+first that does is the answer, checked by the residual like any other. A pile may hold several such loops (a
+20-row pyramid does): a forced slide whose rounds leave fewer points off the contract is kept, and the probing
+goes on from there, within ``PROBES`` forced slides in all.
+
 **Where it may still fail.** A problem over ``LEMKE_POINTS`` points (a 20-row pyramid has 800) on which
-every Newton try cycles and the proximal point method wanders; the solve then raises (``ReferenceFailure``
-with the best residual reached) and the bench counts the step as ``unsolved``, shown beside the error, never
-silently skipped. The known case: piles seen through a speculative margin (``planar-xpbd``'s 5 cm), where
-each face on which a box sits a hair tilted has a second point a few micrometres off, closing at its own
-target. Where such faces close a loop in the pile, their held points cannot all stick; the walk then stalls a
-hair above the tolerance (2.3e-10 m/s on recorded ``pyramid-10`` steps), the error shared out between the
-loop's faces, and face mending, which looks at one face, does not get out.
+every Newton try cycles, the proximal point method wanders, and no single forced slide lands; the solve then
+raises (``ReferenceFailure`` with the best residual reached) and the bench counts the step as ``unsolved``,
+shown beside the error, never silently skipped.
 
 **Why exact.** The answer is returned only once the contract's own measure, ``problem.residual`` of the
 final impulses (complementarity of every normal, the friction box of every tangent, velocities recomputed
@@ -105,7 +116,7 @@ import numpy as np
 
 from stackx.kernel import compiled, enabled, kernel
 from stackx.models.planar.problem import (GROUND, ContactProblem, effective_masses, inverse_masses, jacobian,
-                                          residual, velocities_after)
+                                          point_residuals, residual, velocities_after)
 
 TOLERANCE = 1e-10  # m/s: the contract's residual the reference reaches
 PROXIMAL = 1e-5  # the proximal weight d (dimensionless: a share of each point's own effective mass)
@@ -130,6 +141,8 @@ SETTLE_NEWTON = 20  # most Newton rounds per regularized problem
 SETTLE_SHARE = 0.1  # a regularized problem is solved once its residual is this share of the contract's
 SETTLE_STEP = 1e-4  # the shortest step of its line search
 POLISH = 1e-6  # m/s: below this contract residual, the proximal point method's full Newton rounds try to land
+PROBE_NEAR = 1e-8  # m/s: a try that got below this without landing has its stall probed by forced slides
+PROBES = 32  # most forced slides a solve probes (each: full Newton rounds), those slipping most first
 
 
 class ReferenceFailure(RuntimeError):
@@ -250,6 +263,13 @@ def solve(problem: ContactProblem, pn: np.ndarray | None = None, pt: np.ndarray 
                 break
         return q
 
+    closest: list = [np.inf, None]  # the least residual any try reached, and where
+
+    def near(q: np.ndarray, now: float) -> None:
+        """Keep ``q`` as the closest answer yet if its residual ``now`` is the least seen."""
+        if now < closest[0]:
+            closest[:] = [now, q]
+
     def landed(q: np.ndarray, rounds: int) -> Solution | None:
         """The solution at scaled impulses ``q`` if the contract's residual, recomputed from them, is below
         the tolerance (after ``rounds`` Newton rounds), else None."""
@@ -291,13 +311,16 @@ def solve(problem: ContactProblem, pn: np.ndarray | None = None, pt: np.ndarray 
                     newton.modes = None
             if now < best:
                 best_q, best = q, now
+                near(q, now)
         return None, best
 
     face = np.unique(np.stack([problem.body_a, problem.body_b], axis=1), axis=0, return_inverse=True)[1].reshape(-1)
 
+    ended: list[np.ndarray] = []  # where the last full rounds came closest
+
     def full(q: np.ndarray, rounds: int) -> tuple[Solution | None, float]:
         """Full Newton rounds from ``q``, mending inconsistent mode systems: the solution, or None and the best
-        residual reached. When the modes stay and the residual stops falling, the round's system has no exact
+        residual reached (where: ``ended``). When the modes stay and the residual stops falling, the round's system has no exact
         solution: two points of one face with different targets (one touching, one speculative) cannot both
         stick, as their slips differ by what the face's turning gives. Then a sticking point of the face that
         slips most, whichever's round lands lower, is made to slide against its slip (friction at its bound),
@@ -312,7 +335,9 @@ def solve(problem: ContactProblem, pn: np.ndarray | None = None, pt: np.ndarray 
                 return found, found.residual
             if not np.isfinite(now):
                 break
-            best = min(best, now)
+            if now < best:
+                best, ended[:] = now, [q]
+            near(q, now)
             gap = newton.gap(q)
             for i in list(slide):  # a forced slide running the wrong way, or a point let go, is freed
                 if gap[m + i] * slide[i] > 0.0 or not q[i] > gap[i]:
@@ -364,6 +389,7 @@ def solve(problem: ContactProblem, pn: np.ndarray | None = None, pt: np.ndarray 
                 system.proximal = max(SETTLE_SHRINK * system.proximal, SETTLE_FLOOR)
             reached = system.merit(q)
             best = min(best, reached)
+            near(q, reached)
             if reached < TOLERANCE:
                 found = landed(q, spent)
                 if found is not None:
@@ -377,6 +403,48 @@ def solve(problem: ContactProblem, pn: np.ndarray | None = None, pt: np.ndarray 
                     found.rounds += spent
                     return found, found.residual
         return None, best
+
+    def off(q: np.ndarray) -> np.ndarray:
+        """Which points of scaled impulses ``q`` are off the contract (residual at or above the tolerance)."""
+        normal, tangent = point_residuals(problem, q[:m] * kn, q[m:] * kt)
+        return np.maximum(normal, tangent) >= tolerance
+
+    def probe(q: np.ndarray) -> Solution | None:
+        """Forced slides from a stall ``q``, at most ``PROBES`` in all: each sticking point on a body of a point
+        that is off the contract, those slipping most first, is made to slide against its slip for good, and
+        full Newton rounds from ``q`` try to land; the first that does is the answer. Where held faces close a
+        loop whose targets disagree by a hair, the exact answer has a point of the loop sliding, and which one
+        is not told by the residuals (on a recorded pile the one that lands slipped second most). A pile may
+        hold several such loops: a slide whose rounds leave fewer points off, still within ``PROBE_NEAR``, is
+        kept, and the probing goes on from where those rounds came closest."""
+        nonlocal newton
+        forced: dict[int, float] = {}
+        bad, budget = off(q), PROBES
+        while budget > 0:
+            bodies = np.setdiff1d(np.concatenate([problem.body_a[bad], problem.body_b[bad]]), [GROUND])
+            around = np.isin(problem.body_a, bodies) | np.isin(problem.body_b, bodies)
+            newton = ModeSystem(problem, kn, kt, PROXIMAL)
+            gap, qn, qt = newton.gap(q), q[:m], q[m:]
+            stick = (qn > gap[:m]) & (np.abs(qt - gap[m:]) <= newton.cone * qn)
+            slip = gap[m:]
+            points = np.flatnonzero(around & stick & (slip != 0.0))
+            points = [int(i) for i in points[np.argsort(-np.abs(slip[points]), kind="stable")] if i not in forced]
+            kept = None
+            for i in points[:budget]:
+                budget -= 1
+                newton = ModeSystem(problem, kn, kt, PROXIMAL)
+                newton.forced = {**forced, i: -float(np.sign(slip[i]))}
+                found, reached = full(q, 2 * rounds)
+                if found is not None:
+                    return found
+                if reached < PROBE_NEAR and off(ended[0]).sum() < bad.sum():
+                    kept = newton.forced, ended[0]
+                    break
+            if kept is None:
+                return None
+            forced, q = kept
+            bad = off(q)
+        return None
 
     def pivot() -> tuple[Solution | None, float]:
         """Lemke's pivoting (``stackx.models.planar.lemke``), each answer it ends on taken to the exact one by
@@ -412,12 +480,15 @@ def solve(problem: ContactProblem, pn: np.ndarray | None = None, pt: np.ndarray 
         numbered = numbered[begin - 1:] + numbered[:begin - 1]
     if quick:
         numbered = numbered[:QUICK]
-    best = np.inf
+    best, probed = np.inf, False
     for number, (proximal, run) in numbered:
-        if proximal != newton.proximal:
+        if proximal != newton.proximal or newton.forced:
             newton = ModeSystem(problem, kn, kt, proximal)
         newton.modes = None
         found, reached = run()
+        if found is None and not probed and closest[0] < PROBE_NEAR:
+            probed = True  # the stall of a try that came this near is probed once, counted as that try's
+            found = probe(closest[1])
         if found is not None:
             found.attempt = number
             return found
@@ -456,6 +527,7 @@ class ModeSystem:
         self.cone = problem.friction * kn / kt  # the friction bound in q units: |q_t| <= cone q_n
         self.mu = problem.friction
         self.modes: np.ndarray | None = None
+        self.forced: dict[int, float] = {}  # point: +-1, held and sliding that way whatever the impulses say
         self.kept = False
         self.proximal = proximal  # the weight d; may be changed between rounds (the factorization follows)
         self.factored = proximal
@@ -491,7 +563,10 @@ class ModeSystem:
         qn, qt = q[:m], q[m:]
         held = qn > gap[:m]
         z = qt - gap[m:]
-        return np.concatenate([held, held & (z > self.cone * qn), held & (z < -self.cone * qn)])
+        modes = np.concatenate([held, held & (z > self.cone * qn), held & (z < -self.cone * qn)])
+        for i, sign in self.forced.items():
+            modes[i], modes[m + i], modes[2 * m + i] = True, sign > 0.0, sign < 0.0
+        return modes
 
     def step(self, q: np.ndarray, slide: dict[int, float] | None = None,
              center: np.ndarray | None = None) -> np.ndarray:

@@ -16,8 +16,9 @@ step (``Solution.attempt``), and its next solve begins with that try, the earlie
 (``pyramid-10`` under ``planar-xpbd``) so skips the three cheap tries, 0.45 s a step that never landed: its first
 150 steps at 16 substeps cost the reference 191 s against 336 s, one run of each version side by side
 (``python3 -m benchmarks.planar_reference --steps 150 --run configs/planar/pyramid-10.yaml planar-xpbd 16``,
-the ``total s`` column). The count of unsolved steps moves (27 then, 33 now): the impulses that hold a pile are
-not unique, and which answer a try lands on is the next step's start.
+the ``total s`` column). The count of unsolved steps moved (27 then, 33 after; 1 since stalls are probed, see
+``reference``): the impulses that hold a pile are not unique, and which answer a try lands on is the next
+step's start.
 
 **What a hopeless run costs.** A pile the reference cannot follow sets steps that every try fails, each
 costing all the tries (a 20-row pyramid under ``planar-xpbd`` at 16 substeps: 26 of its first 40 steps, up to
