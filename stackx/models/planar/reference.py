@@ -320,11 +320,11 @@ def solve(problem: ContactProblem, pn: np.ndarray | None = None, pt: np.ndarray 
 
     def full(q: np.ndarray, rounds: int) -> tuple[Solution | None, float]:
         """Full Newton rounds from ``q``, mending inconsistent mode systems: the solution, or None and the best
-        residual reached (where: ``ended``). When the modes stay and the residual stops falling, the round's system has no exact
-        solution: two points of one face with different targets (one touching, one speculative) cannot both
-        stick, as their slips differ by what the face's turning gives. Then a sticking point of the face that
-        slips most, whichever's round lands lower, is made to slide against its slip (friction at its bound),
-        and stays so while it slips that way."""
+        residual reached (where: ``ended``). When the modes stay and the residual stops falling, the round's
+        system has no exact solution: two points of one face with different targets (one touching, one
+        speculative) cannot both stick, as their slips differ by what the face's turning gives. Then a sticking
+        point of the face that slips most, whichever's round lands lower, is made to slide against its slip
+        (friction at its bound), and stays so while it slips that way."""
         slide: dict[int, float] = {}
         best, last = np.inf, np.inf
         for done in range(rounds):
