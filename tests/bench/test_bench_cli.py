@@ -342,9 +342,9 @@ def test_each_solver_is_drawn_against_time_at_the_run_the_summary_shows(doc: dic
 
 def test_every_solver_has_one_colour_everywhere(bench_out: Path, doc: dict) -> None:
     """The swatches of the page give each solver one colour, a different one per built-in solver, and each
-    case's speed plot shows every solver it draws in that colour (the filled centre of a passing marker, or a
-    hollow marker's ring, has the exact colour), even where two solvers' runs coincide: the tiny cases have
-    solvers with the same error at nearly the same speed, and a marker drawn over another leaves it a ring."""
+    case's speed plot draws every solver it shows in that exact colour (its line, markers and legend entry are
+    drawn with it). That a run another solver's marker lands on stays in sight is ``tests/bench/test_plots.py``'s
+    to check, where the pixels under each run are known."""
     page = (bench_out / "out" / "report.html").read_text()
     swatches = re.findall(r'<span class="sw" style="background:(#[0-9a-f]{6})"></span>([\w-]+)', page)
     colours: dict[str, set[str]] = {}
