@@ -77,8 +77,9 @@ goes on from there, within ``PROBES`` forced slides in all.
 **Where it may still fail.** A problem over ``LEMKE_POINTS`` points (a 20-row pyramid has 800) on which
 every Newton try cycles, the proximal point method wanders, and the forced slides probed do not land; the solve
 then raises (``ReferenceFailure`` with the best residual reached) and the bench counts the step as
-``unsolved``, shown beside the error, never silently skipped. The known cases are on a 20-row pyramid under
-``planar-xpbd``: stalls that need several slides at once, and walks that crawl (see the README).
+``unsolved``, shown beside the error, never silently skipped. The known cases are on a 20-row pyramid: under
+``planar-xpbd``, stalls that need several slides at once and walks that crawl; under ``planar-soft-step`` at 64
+substeps, walks that crawl while the pile settles (see the README).
 
 **Why exact.** The answer is returned only once the contract's own measure, ``problem.residual`` of the
 final impulses (complementarity of every normal, the friction box of every tangent, velocities recomputed
