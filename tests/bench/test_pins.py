@@ -33,13 +33,13 @@ KNOB = [4, 16, 64]
 PINNED: dict[str, dict[str, list[int | None]]] = {
     "big-dt": {
         "baumgarte": [], "exact": [None], "jacobi": [64], "ngs": [], "pgs": [64], "soft-step": [],
-        "split-impulse": [], "warm-start": [16, 64], "xpbd": [64]},
+        "split-impulse": [], "warm-start": [16, 64], "xpbd": []},
     "drop-200": {
         "baumgarte": [], "exact": [None], "jacobi": [], "ngs": [], "pgs": [], "soft-step": [], "split-impulse": [],
         "warm-start": [], "xpbd": []},
     "drop-fast": {
         "baumgarte": [], "exact": [], "jacobi": [], "ngs": [64], "pgs": [], "soft-step": [], "split-impulse": [64],
-        "warm-start": [], "xpbd": [64]},
+        "warm-start": [], "xpbd": []},
     "gap-1000": {
         "baumgarte": [], "exact": [None], "jacobi": [], "ngs": [], "pgs": [], "soft-step": [], "split-impulse": [],
         "warm-start": [], "xpbd": []},
@@ -60,7 +60,7 @@ PINNED: dict[str, dict[str, list[int | None]]] = {
         "warm-start": [], "xpbd": []},
     "percent-1": {
         "baumgarte": [], "exact": [], "jacobi": [], "ngs": [16, 64], "pgs": [], "soft-step": [64],
-        "split-impulse": [], "warm-start": [], "xpbd": [64]},
+        "split-impulse": [], "warm-start": [], "xpbd": []},
     "ratio-100": {
         "baumgarte": [64], "exact": [None], "jacobi": [], "ngs": [64], "pgs": [], "soft-step": [],
         "split-impulse": [64], "warm-start": [64], "xpbd": [16, 64]},
@@ -78,7 +78,7 @@ PINNED: dict[str, dict[str, list[int | None]]] = {
         "warm-start": [], "xpbd": []},
     "slop-0": {
         "baumgarte": [], "exact": [None], "jacobi": [64], "ngs": [16, 64], "pgs": [64], "soft-step": [64],
-        "split-impulse": [], "warm-start": [16, 64], "xpbd": [64]},
+        "split-impulse": [], "warm-start": [16, 64], "xpbd": []},
     "tall-100": {
         "baumgarte": [], "exact": [None], "jacobi": [], "ngs": [], "pgs": [], "soft-step": [], "split-impulse": [],
         "warm-start": [], "xpbd": [64]},

@@ -11,6 +11,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from stackx.models.column.state import ColumnState
+from stackx.models.touch import TOUCH_GAP
 
 if TYPE_CHECKING:
     from stackx.results import RunResult
@@ -96,7 +97,8 @@ STILL = 1e-9  # m: a step of the top box shorter than this is standing still, no
 
 
 def top_motion(result: RunResult) -> dict[str, float]:
-    """How the top box moves over the whole run once it rests on something (needs the state before every step).
+    """How the top box moves over the whole run once it touches what is under it (``stackx.models.touch``; needs
+    the state before every step).
 
     - ``top_reversals``: how many times its step-to-step motion changes direction (steps shorter than
       ``STILL`` skipped), the count of a bounce or an oscillation;
@@ -112,7 +114,7 @@ def top_motion(result: RunResult) -> dict[str, float]:
         f = result.frames[k]
         y, half = f.y[0], f.half[0]
         gap = (y[-1] - y[-2]) - (half[-1] + half[-2]) if f.boxes > 1 else y[0] - half[0]
-        touching = touching or gap < 0.0
+        touching = touching or gap < TOUCH_GAP
         if touching:
             tops.append(float(y[-1]))
     moves = [b - a for a, b in zip(tops, tops[1:]) if abs(b - a) > STILL]

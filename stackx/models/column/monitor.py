@@ -11,8 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from stackx.kernel import kernel
-
-TOUCH = 0.0  # a contact whose depth is above this counts as touching
+from stackx.models.touch import touching
 
 
 @kernel
@@ -24,7 +23,8 @@ def observe(y: np.ndarray, half: np.ndarray, dt: float, last: np.ndarray, peak: 
     - ``peak[b]``: the largest contact depth so far (m);
     - ``reach[b]``: the largest depth as a share of the thinner box's half-height; above 1 a box has passed
       half-way into its neighbour (or its centre is below the floor);
-    - ``touched[b, i]``: box ``i`` has touched something (a contact with positive depth) at some step;
+    - ``touched[b, i]``: box ``i`` has touched something at some step (a contact overlapping, at zero
+      depth or a hair apart: ``stackx.models.touch``);
     - ``launch[b]``: the fastest upward motion ``(y - last)/dt`` of a box that had touched something (m/s):
       what the box actually did over the step, whatever moved it (impulse or position correction).
     """
@@ -34,7 +34,7 @@ def observe(y: np.ndarray, half: np.ndarray, dt: float, last: np.ndarray, peak: 
         peak[b] = d
     if d / half[0] > reach[b]:
         reach[b] = d / half[0]
-    if d > TOUCH:
+    if touching(d):
         touched[b, 0] = True
     for i in range(n - 1):
         d = (half[i] + half[i + 1]) - (y[i + 1] - y[i])
@@ -43,7 +43,7 @@ def observe(y: np.ndarray, half: np.ndarray, dt: float, last: np.ndarray, peak: 
         r = d / min(half[i], half[i + 1])
         if r > reach[b]:
             reach[b] = r
-        if d > TOUCH:
+        if touching(d):
             touched[b, i] = True
             touched[b, i + 1] = True
     for i in range(n):

@@ -10,6 +10,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from stackx.models.touch import TOUCH_GAP
+
 
 @dataclass
 class ColumnState:
@@ -46,8 +48,8 @@ class ColumnState:
             self.reach = np.maximum((d / thinner).max(axis=1), 0.0)
         if self.touched is None:
             self.touched = np.zeros(self.y.shape, dtype=np.bool_)
-            self.touched[:, :] = d > 0.0
-            self.touched[:, :-1] |= d[:, 1:] > 0.0
+            self.touched[:, :] = d > -TOUCH_GAP  # as ``touching`` judges (stackx.models.touch)
+            self.touched[:, :-1] |= d[:, 1:] > -TOUCH_GAP
         if self.launch is None:
             self.launch = np.full(self.batch, -np.inf)
 

@@ -1,8 +1,9 @@
 """Measures taken inside the planar stepping loop, after every step, from positions alone.
 
 Solvers call ``observe`` for each batch row after every step, as column solvers call theirs: what it records
-comes from where the boxes are, found by the model's own collision test (``collide`` with no margin), never
-from what a solver reports about its contacts, so a solver cannot hide an overlap it did not see.
+comes from where the boxes are, found by the model's own collision test (``collide``, with points up to the
+touching gap apart, ``stackx.models.touch``), never from what a solver reports about its contacts, so a solver
+cannot hide an overlap it did not see.
 """
 
 from __future__ import annotations
@@ -11,8 +12,7 @@ import numpy as np
 
 from stackx.kernel import kernel
 from stackx.models.planar.collide import GROUND, collide
-
-TOUCH = 0.0  # a contact point whose depth is above this counts as touching
+from stackx.models.touch import TOUCH_GAP, touching
 
 
 @kernel
@@ -30,7 +30,8 @@ def observe(x: np.ndarray, y: np.ndarray, angle: np.ndarray, hx: np.ndarray, hy:
     - ``peak[b]``: the largest contact depth so far (m);
     - ``reach[b]``: the largest depth as a share of the thinner body's smaller half-size (the ground's
       contacts: the box's own); above 1 a box has passed half-way into its neighbour or the ground;
-    - ``touched[b, i]``: body ``i`` has had a contact of positive depth at some step;
+    - ``touched[b, i]``: body ``i`` has touched something at some step (a contact point overlapping, at
+      zero depth or a hair apart: ``stackx.models.touch``);
     - ``launch[b]``: the fastest upward motion ``(y - last_y)/dt`` of a movable body that had touched
       something (m/s), whatever moved it;
     - ``last_y[b, i]``: the height of body ``i`` after this step, for the next one.
@@ -45,7 +46,7 @@ def observe(x: np.ndarray, y: np.ndarray, angle: np.ndarray, hx: np.ndarray, hy:
         point = np.empty((room, 2))
         depth = np.empty(room)
         feature = np.empty(room, np.int64)
-        count = collide(x, y, angle, hx, hy, static, 0.0, body_a, body_b, normal, point, depth, feature)
+        count = collide(x, y, angle, hx, hy, static, TOUCH_GAP, body_a, body_b, normal, point, depth, feature)
         if count <= room:
             break
         room = count
@@ -55,11 +56,11 @@ def observe(x: np.ndarray, y: np.ndarray, angle: np.ndarray, hx: np.ndarray, hy:
         size = min(hx[j], hy[j])
         if i != GROUND:
             size = min(size, min(hx[i], hy[i]))
-        if d > peak[b]:
+        if d > peak[b]:  # peak and reach start at 0: a gap never raises them
             peak[b] = d
         if d / size > reach[b]:
             reach[b] = d / size
-        if d > TOUCH:
+        if touching(d):
             touched[b, j] = True
             if i != GROUND:
                 touched[b, i] = True
