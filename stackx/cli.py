@@ -133,6 +133,8 @@ def bench(paths: Paths,
           out: Annotated[Path, typer.Option("--out", "-o", help="output folder")] = Path("out/bench"),
           sets: Sets = None, plugins: Plugins = None, debug: Debug = False,
           quiet: Annotated[bool, typer.Option("--quiet", "-q", help="no progress bar or tables")] = False,
+          wide: Annotated[bool, typer.Option("--wide", help="every run's figures and the stability matrix, as "
+                                                            "wide as they need (default: 80 columns)")] = False,
           executor: Executor = "local", scheduler: Scheduler = None) -> None:
     """Run every chosen solver over the configs and a range of its cost knob; write bench.json and report.html."""
     os.environ.setdefault("STACKX_JIT", "1")  # a bench measures compiled solvers, small batches too
@@ -149,7 +151,7 @@ def bench(paths: Paths,
             if not names:
                 raise ConfigError("--solvers needs at least one solver name, e.g. --solvers pgs,warm-start")
         run_bench(paths, names, out, plugins, quiet, command=" ".join(["stackx", *sys.argv[1:]]), sets=sets,
-                  choice=choice)
+                  choice=choice, wide=wide)
 
 
 @app.command(epilog="Example: stackx validate configs/ configs/hard/")

@@ -74,6 +74,21 @@ class Criteria(BaseModel):
         return self.rest_factor * self.slop * contacts
 
 
+def digits(value: float, limit: float, least: int = 3) -> int:
+    """Significant digits that show ``value`` and ``limit`` apart when they differ: ``least``, or as many
+    more as it takes (a launch of 1.0034 against 1 needs 4: ``1.003 > 1``, never ``1 > 1``)."""
+    n = least
+    while n < 17 and value != limit and format(value, f".{n}g") == format(limit, f".{n}g"):
+        n += 1
+    return n
+
+
+def near(value: float, limit: float) -> tuple[str, str]:
+    """``value`` and ``limit`` as text, with the digits it takes to tell them apart (``digits``)."""
+    n = digits(value, limit)
+    return format(value, f".{n}g"), format(limit, f".{n}g")
+
+
 @dataclass(frozen=True)
 class Check:
     """One measure against its upper limit: at most the limit, or with ``strict`` below it. A NaN never passes."""
@@ -90,7 +105,8 @@ class Check:
     def describe(self) -> str:
         """``max_depth 0.53 > 0.02``: the measure, its value and how it stands to the limit."""
         rel = ("<" if self.strict else "<=") if self.passed else (">=" if self.strict else ">")
-        return f"{self.measure} {self.value:.3g} {rel} {self.limit:.3g}"
+        value, limit = near(self.value, self.limit)
+        return f"{self.measure} {value} {rel} {limit}"
 
 
 @dataclass(frozen=True)

@@ -34,7 +34,8 @@ class Timing(BaseModel):
     model_config = ConfigDict(extra="forbid")
     steps: int = Field(200, gt=0, le=1_000_000, description="steps per timed run, from the scene's start "
                                                            "(fewer when the case is shorter or an event comes first)")
-    repeats: int = Field(5, gt=0, le=100, description="timed runs; the median is reported (2-core machines are noisy)")
+    repeats: int = Field(5, gt=0, le=100, description="timed runs of each way of stepping: the fastest is "
+                                                            "reported, with the spread of the others")
 
 
 class BenchSection(BaseModel):

@@ -40,10 +40,11 @@ def load_cases(paths: list[str], solvers: list[str] | None, plugins: Path | None
 
 def bench(paths: list[str], solvers: list[str] | None, out: Path | None, plugins: Path | None = None,
           quiet: bool = False, command: str = "stackx bench", sets: list[str] | None = None,
-          choice: Choice | None = None) -> list[CaseResult]:
+          choice: Choice | None = None, wide: bool = False) -> list[CaseResult]:
     """Bench ``paths`` with ``solvers`` (None: every built-in and installed one); write into ``out`` (None:
     nothing is written, the results are returned). Each solver on each case is one job for the executor
-    ``choice`` names (this process by default)."""
+    ``choice`` names (this process by default). The terminal gets a summary that fits 80 columns, or with
+    ``wide`` every run's figures and the stability matrix."""
     cases = load_cases(paths, solvers, plugins, sets)
     console = Console(stderr=True)
     start = time.perf_counter()
@@ -65,7 +66,7 @@ def bench(paths: list[str], solvers: list[str] | None, out: Path | None, plugins
         staged.commit()
     if not quiet:
         console = screen()
-        print_all(results, console)
+        print_all(results, console, wide)
         if out is not None:
             console.print(f"wrote {out / 'bench.json'} and {out / 'report.html'} in {wall:.1f} s")
     return results

@@ -7,6 +7,12 @@ among runs that **passed** the case: a run that is fast and accurate step by ste
 moving or launched is no answer to the case, and letting it win would recommend a setting that fails. The
 reference never competes: ``exact`` is what the error is measured against, so its error is zero by
 definition, not by merit (the report shows its time beside the winners instead).
+
+Times are compared with a tolerance: two figures within ``TIE`` of each other are the same cost, since a
+timing on a shared machine moves by that much between benches (``stackx.bench.timing``). A run leaves the
+front only for one that is at least as accurate and clearly faster, or more accurate and not clearly slower;
+an equal-cost winner names the runs tied with it. Fronts and winners then stay put from bench to bench unless
+a figure moved by more than the tolerance, and any that rests on a figure flagged unstable says so.
 """
 
 from __future__ import annotations
@@ -20,6 +26,17 @@ from stackx.bench.plan import CASE
 from stackx.bench.sweep import Record
 
 TARGETS = (1e-1, 1e-2, 1e-3, 1e-4, 1e-6)  # error levels (m/s) at which solvers are compared at equal cost
+TIE = 0.2  # times within this share of each other are the same cost
+
+
+def clearly_faster(a: float, b: float) -> bool:
+    """Whether time ``a`` is below ``b`` by more than the tolerance ``TIE``."""
+    return a * (1.0 + TIE) < b
+
+
+def unstable(rec: Record) -> bool:
+    """Whether a record's timing was flagged (``stackx.bench.timing``): too busy a machine to trust it."""
+    return bool(rec.timing.get("unstable"))
 
 
 def label(solver: str, knob: str | None, value: int | None) -> str:
@@ -51,7 +68,7 @@ class Cell:
     tried: list[int | None]
     shown: int | None       # the knob value the failure is shown at (the largest tried)
     failing: str
-    failed: list[str]       # the measures that failed there (empty when passed or when the run blew up)
+    words: str              # why it failed there, in the words of ``why`` (empty when passed)
     crushed_at: int | None = None  # where the run shown was crushed, if it was
 
     def text(self) -> str:
@@ -64,12 +81,11 @@ class Cell:
 
     def short(self) -> str:
         """A terminal-width version: ``pass 8 (4/7)`` (the smallest passing knob value, passing/tried), or
-        ``FAIL`` and the measures that failed."""
+        ``FAIL`` and why, in the words every output uses (``why``: ``overlaps, moving``, ``crushed at step
+        40``)."""
         if self.passed:
             return "pass" if self.knob is None else f"pass {self.passing[0]} ({len(self.passing)}/{len(self.tried)})"
-        if self.crushed_at is not None:
-            return "CRUSHED"
-        return "FAIL " + (" ".join(self.failed) or "blew up")
+        return f"FAIL {self.words}"
 
     def as_dict(self) -> dict[str, Any]:
         return {"passed": self.passed, "knob": self.knob, "passing": self.passing, "tried": self.tried,
@@ -85,9 +101,8 @@ def cell(records: list[Record]) -> Cell:
     recs = sorted(case_records(records), key=lambda r: r.value or 0)
     passing = [r.value for r in recs if r.passed]
     last = recs[-1]
-    failed = [c["measure"] for v in last.criteria.values() for c in v["checks"] if not c["passed"]]
     return Cell(bool(passing), last.knob, passing, [r.value for r in recs], last.value,
-                "" if passing else failing(last), [] if passing else failed,
+                "" if passing else failing(last), "" if passing else why(last),
                 None if passing else last.crushed_at)
 
 
@@ -112,15 +127,19 @@ def contenders(records: Iterable[Record]) -> list[Record]:
     return [r for r in measured(records) if r.passed]
 
 
+def dominates(a: Record, b: Record) -> bool:
+    """Whether run ``a`` beats ``b`` on speed against error: at least as accurate and clearly faster, or more
+    accurate and not clearly slower (times within ``TIE`` are the same cost)."""
+    ta, tb, ea, eb = a.us_per_step, b.us_per_step, a.error["rms"], b.error["rms"]
+    return (ea <= eb and clearly_faster(ta, tb)) or (ea < eb and not clearly_faster(tb, ta))  # type: ignore[arg-type, operator]
+
+
 def pareto(records: Iterable[Record]) -> list[Record]:
-    """The speed-against-error front of the runs that passed: no other such run is both faster and at least as
-    accurate."""
-    front, best = [], float("inf")
-    for r in sorted(contenders(records), key=lambda r: (r.us_per_step, r.error["rms"])):
-        if r.error["rms"] < best:  # type: ignore[operator]
-            front.append(r)
-            best = r.error["rms"]  # type: ignore[assignment]
-    return front
+    """The speed-against-error front of the runs that passed: those no other such run beats (``dominates``),
+    fastest first."""
+    runs = contenders(records)
+    front = [r for r in runs if not any(dominates(o, r) for o in runs if o is not r)]
+    return sorted(front, key=lambda r: (r.us_per_step, r.error["rms"]))  # type: ignore[arg-type, return-value]
 
 
 def cheapest(records: Iterable[Record], target: float) -> dict[str, Record]:
@@ -134,16 +153,26 @@ def cheapest(records: Iterable[Record], target: float) -> dict[str, Record]:
 
 def equal_cost(records: list[Record], targets: Iterable[float] = TARGETS) -> list[dict[str, Any]]:
     """For each error level: which solver reaches it with the fewest microseconds per step in a run that passed,
-    and the others'."""
+    the solvers tied with it (within ``TIE``), whether any of those rest on an unstable timing, and the
+    others'."""
     rows = []
     for target in targets:
         by_solver = cheapest(records, target)
         ranked = sorted(by_solver.values(), key=lambda r: r.us_per_step)  # type: ignore[arg-type, return-value]
+        tied = [r for r in ranked[1:] if not clearly_faster(ranked[0].us_per_step, r.us_per_step)]  # type: ignore[arg-type]
         rows.append({"target": target,
                      "winner": ranked[0].solver if ranked else None,
+                     "tied": [r.solver for r in tied],
+                     "unstable": [r.solver for r in ranked[:1 + len(tied)] if unstable(r)],
                      "solvers": [{"solver": r.solver, "knob": r.knob, "value": r.value, "us_per_step": r.us_per_step,
-                                  "error": r.error["rms"]} for r in ranked]})
+                                  "spread": r.timing.get("spread"), "error": r.error["rms"]} for r in ranked]})
     return rows
+
+
+def tied_with(best: Record, shown: list[Record]) -> list[Record]:
+    """The passing runs of ``shown`` (each solver's, ``outcomes``) whose time is within ``TIE`` of ``best``'s."""
+    return [r for r in shown if r is not best and r.passed and best.us_per_step is not None
+            and r.us_per_step is not None and not clearly_faster(best.us_per_step, r.us_per_step)]
 
 
 def by_solver(records: Iterable[Record]) -> dict[str, list[Record]]:
@@ -164,7 +193,9 @@ def chosen(records: list[Record]) -> Record:
 
 
 SHORT = {"max_depth": "overlaps", "max_gap": "gap", "reach": "crushed", "rms_motion": "moving",
-         "launch": "launched", "drift_x": "drifted", "drift_angle": "turned", "slide_error": "slides wrong"}  # a failed check in a word; |top_rest_error| is 'sunk' or 'high' by its sign
+         "launch": "launched", "drift_x": "drifted", "drift_angle": "turned", "slide_error": "slides wrong"}
+# a failed check in a word, the one word every output (terminal, report, matrix) uses for it;
+# |top_rest_error| is 'sunk' or 'high' by its sign
 
 
 def why(rec: Record) -> str:

@@ -13,9 +13,9 @@ from __future__ import annotations
 
 import json
 
-from stackx.bench.compare import Cell, case_records, failing, label, matrix, outcomes
+from stackx.bench.compare import TIE, Cell, case_records, failing, label, matrix, outcomes, tied_with, unstable
 from stackx.bench.markup import esc, number, swatch, table, td
-from stackx.bench.result import DEFINITIONS, CaseResult, per_call_note, shown, step_time
+from stackx.bench.result import DEFINITIONS, CaseResult, call_time, per_call_note, shown, step_time, unstable_note
 from stackx.bench.snapshots import Snapshot
 from stackx.bench.summary import summary_html
 from stackx.bench.sweep import Record
@@ -27,6 +27,7 @@ table { border-collapse: collapse; margin: .6em 0 1.2em; font-size: 12.5px; }
 th, td { border: 1px solid #ccc; padding: 3px 6px; text-align: right; vertical-align: top; }
 th { background: #f2f2f2; } td.l, th.l { text-align: left; }
 td.pass { background: #e3f4e3; } td.fail { background: #fbe3e0; } td.best { font-weight: bold; }
+td.warn { background: #fff3cd; }
 .matrix td, .matrix th { text-align: left; max-width: 170px; overflow-wrap: anywhere; }
 .summary td, .summary th { text-align: left; white-space: nowrap; } .summary td[title] { cursor: help; }
 .sw { display: inline-block; width: .8em; height: .8em; margin-right: .3em; border-radius: 2px; }
@@ -90,7 +91,7 @@ def _timeline_html(results: list[CaseResult]) -> str:
     return table(["case", "boxes", *map(swatch, solvers)], rows, "matrix", markup=True)
 
 
-HEAD = ["solver", "knob", "µs per step", "µs per call", "error RMS (m/s)", "error max (m/s)", "worst step",
+HEAD = ["solver", "knob", "µs per step (+spread)", "µs per call (+spread)", "error RMS (m/s)", "error max (m/s)", "worst step",
         "final depth (m)", "final gap (m)", "peak depth (m)", "reach (× half-height)", "top rest error (m)",
         "RMS motion (m/s)", "top p2p (m)", "launch (m/s)", "recovered at (step)", "settled at (step)", *NAMES]
 
@@ -100,7 +101,8 @@ def _records_html(res: CaseResult) -> str:
     for r in case_records(res.records):
         f = shown(r)
         line = [f'<td class="l">{swatch(r.solver)}</td>', td(f"{r.knob} {r.value}" if r.knob else "-", "l"),
-                td(step_time(r)), td(number(r.us_per_call, ".2f")),
+                td(step_time(r), "warn" if unstable(r) else "", r.timing.get("unstable") or None),
+                td(call_time(r), "warn" if unstable(r) else "", r.timing.get("unstable") or None),
                 td(f["error"] if not r.reference else "reference"), td(f["error_max"]), td(f["worst_step"])]
         line += [td(f[k]) for k in ("max_depth", "max_gap", "peak_depth", "reach", "top_rest_error", "rms_motion",
                                     "top_p2p", "launch", "steps_to_recover", "steps_to_settle")]
@@ -112,7 +114,9 @@ def _records_html(res: CaseResult) -> str:
                 line.append(td("pass" if v["passed"] else f"fail: {v['failing']}", "pass" if v["passed"] else "fail"))
         rows.append(line)
     note = per_call_note(res)
-    return table(HEAD, rows) + (f"<p class=note>{esc(note)} (see one_step_per_call).</p>" if note else "")
+    text = table(HEAD, rows) + (f"<p class=note>{esc(note)} (see one_step_per_call).</p>" if note else "")
+    shaky = unstable_note(res)
+    return text + (f"<p class=note>{esc(shaky)} (see unstable; hover a figure for why).</p>" if shaky else "")
 
 
 def _equal_cost_html(res: CaseResult) -> str:
@@ -123,17 +127,24 @@ def _equal_cost_html(res: CaseResult) -> str:
             rows.append([td(f"{row['target']:g}"), td("no passing run reaches it", "l"), td("-"), td("-", "l")])
             continue
         win = ranked[0]
-        others = "; ".join(f"{label(s['solver'], s['knob'], s['value'])} {s['us_per_step']:.2f}" for s in ranked[1:])
-        rows.append([td(f"{row['target']:g}"), f'<td class="l">{swatch(win["solver"])}{esc(_knob(win))}</td>',
-                     td(f"{win['us_per_step']:.2f}"), td(others or "-", "l")])
+        others = "; ".join(f"{label(s['solver'], s['knob'], s['value'])} {_us(s)}"
+                           + (" (tied)" if s["solver"] in row["tied"] else "") for s in ranked[1:])
+        shaky = f" unstable timing: {', '.join(row['unstable'])}" if row["unstable"] else ""
+        rows.append([td(f"{row['target']:g}"), f'<td class="l">{swatch(win["solver"])}{esc(_knob(win))}{esc(shaky)}</td>',
+                     td(_us(win)), td(others or "-", "l")])
     text = table(["error ≤ (m/s)", "fastest to reach it, among runs that passed", "µs per step",
-                  "others that reach it, slower (µs per step)"], rows)
+                  "others that reach it, slower (µs per step; tied: within the tolerance)"], rows)
     ref = next((r for r in case_records(res.records) if r.reference), None)
     if ref is not None and ref.us_per_step is not None:
         text += (f"<p class=note>The reference, {swatch(ref.solver)}, solves every step exactly (error 0 by "
                  f"definition) in {ref.us_per_step:.2f} µs per step and {'passed' if ref.passed else 'failed'} "
                  "the case.</p>")
     return text
+
+
+def _us(row: dict[str, object]) -> str:
+    spread = row.get("spread")
+    return f"{row['us_per_step']:.3g}" + (f" +{100 * spread:.0f}%" if isinstance(spread, float) else "")
 
 
 def _knob(row: dict[str, object]) -> str:
@@ -147,8 +158,10 @@ def _verdict(res: CaseResult) -> str:
     if not passing:
         return f"no solver passes ({len(shown_runs)} tried)"
     best = passing[0]
-    return (f"cheapest that passes: {label(best.solver, best.knob, best.value)}, {number(best.us_per_step)} µs per "
-            f"step; {len(passing)} of {len(shown_runs)} solvers pass")
+    ties = tied_with(best, shown_runs)
+    tie = f" (tied within {100 * TIE:.0f}% with {', '.join(r.solver for r in ties)})" if ties else ""
+    return (f"cheapest that passes: {label(best.solver, best.knob, best.value)}, {step_time(best)} µs per "
+            f"step{tie}; {len(passing)} of {len(shown_runs)} solvers pass")
 
 
 def _trajectories_note(res: CaseResult) -> str:
@@ -224,7 +237,10 @@ def _case_html(res: CaseResult, pictures: dict[str, str], states: list[Snapshot]
     parts.append("<h3>Equal cost</h3>" + _equal_cost_html(res))
     if res.front:
         front = ", ".join(label(r.solver, r.knob, r.value) for r in res.front)
-        parts.append(f"<p class=note>Pareto front of the runs that passed, fastest first: {esc(front)}.</p>")
+        shaky = [label(r.solver, r.knob, r.value) for r in res.front if unstable(r)]
+        rests = (f" It rests on unstable timings ({', '.join(shaky)}): another bench may draw it otherwise."
+                 if shaky else f" Every time on it is stable; times within {100 * TIE:.0f}% count as the same cost.")
+        parts.append(f"<p class=note>Pareto front of the runs that passed, fastest first: {esc(front)}.{esc(rests)}</p>")
     else:
         parts.append("<p class=note>No Pareto front: no run that passed has both a time and an error.</p>")
     parts.append("<h3>Every run</h3>" + _records_html(res))

@@ -59,7 +59,21 @@ def _reference(records: list[Record]) -> Record | None:
 
 
 def speed_error_png(title: str, records: list[Record]) -> bytes | None:
-    """The speed-against-error plot of one case, or None when no run has both a time and an error."""
+    """The speed-against-error plot of one case as PNG bytes, or None when no run has both a time and an
+    error."""
+    fig = speed_error_figure(title, records)
+    if fig is None:
+        return None
+    try:
+        return _png(fig)
+    finally:
+        _pyplot().close(fig)
+
+
+def speed_error_figure(title: str, records: list[Record]) -> Any:
+    """The speed-against-error plot of one case as a matplotlib figure (the caller closes it), or None when
+    no run has both a time and an error. Each solver's line is labelled with its name; each run's marker is
+    a line of one point, its spread (the median repeat) a thin bar to its right."""
     points = measured(records)
     if not points:
         return None
@@ -96,6 +110,9 @@ def speed_error_png(title: str, records: list[Record]) -> bytes | None:
             c = colour(solver)
             ax.plot([x], [y], "v" if float(r.error["rms"]) < AS_EXACT else "o", ms=size, mec=c,
                     mfc=c if r.passed else "white", mew=1.4)
+            spread = r.timing.get("spread")
+            if spread:  # the median repeat: how far another bench may put this run to the right
+                ax.plot([x, x * (1 + spread)], [y, y], "-", color=c, lw=0.8, alpha=0.6)
             if r.knob is not None:
                 ax.annotate(str(r.value), (x, y), textcoords="offset points", xytext=(4, 3), fontsize=7, color=c)
         front = pareto(points)
@@ -108,14 +125,15 @@ def speed_error_png(title: str, records: list[Record]) -> bytes | None:
             ax.axvline(reference.us_per_step, color=colour(reference.solver), ls="--", lw=1.0,
                        label=f"{reference.solver} (reference, error 0): {reference.us_per_step:.3g} µs/step, "
                              f"{'passed' if reference.passed else 'failed'}")
-        ax.set_xlabel("microseconds per step (median of timed runs)")
+        ax.set_xlabel("microseconds per step (fastest of timed runs; bar: to the median)")
         ax.set_ylabel("RMS velocity error against exact (m/s)")
         ax.set_title(f"{title}: speed against error (filled: passed the case, hollow: failed)", fontsize=10)
         ax.grid(True, which="both", lw=0.3, alpha=0.5)
         ax.legend(fontsize=7.5, loc="best")
-        return _png(fig)
-    finally:
+        return fig
+    except BaseException:
         plt.close(fig)
+        raise
 
 
 def marker_sizes(pixels: Any, solvers: list[str], dpi: float) -> list[float]:

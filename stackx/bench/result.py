@@ -7,11 +7,15 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from stackx.bench.claims import finding
-from stackx.bench.compare import TARGETS, equal_cost, pareto
+from stackx.bench.compare import TARGETS, TIE, equal_cost, pareto
 from stackx.bench.markup import number
 from stackx.bench.plan import Case
 from stackx.bench.sweep import Record
+from stackx.bench.timing import UNSTABLE
+from stackx.criteria import digits
 from stackx.models.column.measures import MOTION_WINDOW, STILL
+
+UNSTABLE_MARK = "!"  # after a timing flagged unstable (see DEFINITIONS)
 
 DEFINITIONS = {
     "holds": "in the final state every contact (the floor's included) overlaps by at most max_depth <= "
@@ -44,12 +48,19 @@ DEFINITIONS = {
     "steps_to_settle": "the step from which every contact is within that depth and that gap and the RMS motion "
                        "of each step is below criteria.settle, to the end of the run; - when it never gets there",
     "us_per_step": "microseconds per step of one run alone, from the scene's start (up to bench.timing.steps "
-                   "steps, before any scene event), stepped in one call, compiled, on one thread, the median of "
-                   "bench.timing.repeats runs after an untimed warm-up step; with what follows from them (equal "
-                   "cost, Pareto fronts, plots) the only numbers that change between two benches of the same "
-                   "configs",
+                   "steps, before any scene event), stepped in one call, compiled, on one thread, timed by the "
+                   "CPU time of that thread (time the machine gives other work is not counted): the fastest of "
+                   "bench.timing.repeats runs after an untimed warm-up, every repeat kept in bench.json; with what "
+                   "follows from them (equal cost, Pareto fronts, plots) the only numbers that change between two "
+                   "benches of the same configs. Shown with its spread, e.g. '5.31 +2%'",
     "us_per_call": "the same, one step per call, as a game loop or an engine bound to Python is stepped: the "
                    "figure to set beside pymunk, Box2D or MuJoCo",
+    "spread": "how far the median repeat is above the fastest, as a share of it ('+2%'): how much the figure "
+              "could move in another bench",
+    "unstable": f"a timing whose spread is above {100 * UNSTABLE:.0f}%, or whose µs/step came out above its "
+                "µs/call (many steps in one call cannot cost more than one call per step but by noise): marked "
+                f"'{UNSTABLE_MARK}', and a front or winner resting on it says so; bench again on a quieter "
+                "machine, or raise bench.timing.repeats",
     "one_step_per_call": "an engine (pymunk, Box2D, MuJoCo) steps once per Python call and has no way to take "
                          "many steps in one, so it is timed per call only and its µs/step is its µs/call, marked "
                          "'*'; it includes copying the bodies' heights and velocities back into the column and the "
@@ -80,10 +91,13 @@ DEFINITIONS = {
              "the end (RMS motion at or above criteria.settle) where the lab's has settled",
     "equal_cost": f"for each error level ({', '.join(f'{t:g}' for t in TARGETS)} m/s), the solver whose cheapest "
                   "run at or below that error takes the fewest microseconds per step, among runs that passed the "
-                  "case (a run that fails is no answer, however fast and accurate its steps); the reference is "
-                  "left out (its error is zero by definition) and its time shown beside",
-    "pareto": "among runs that passed the case, those that no other passing run beats on both time per step and "
-              "error (the reference left out); runs that failed are drawn hollow but never on the front",
+                  "case (a run that fails is no answer, however fast and accurate its steps), with the solvers "
+                  f"tied with it (within {100 * TIE:.0f}%: the same cost, as timings go); the reference is left out "
+                  "(its error is zero by definition) and its time shown beside",
+    "pareto": "among runs that passed the case, those that no other passing run beats: at least as accurate and "
+              f"more than {100 * TIE:.0f}% faster, or more accurate and not {100 * TIE:.0f}% slower (times "
+              "closer than that are the same cost, so the front does not change with a timing's noise); the "
+              "reference left out; runs that failed are drawn hollow but never on the front",
     "cheapest": "the case's answer in the summary: each solver at its smallest knob value that passed, and of "
                 "those the one with the fewest microseconds per step, the reference included (its time is as "
                 "real as any); the other solvers fail for the reasons their cells give, at the largest knob "
@@ -122,10 +136,36 @@ MEASURES = ("max_depth", "max_gap", "peak_depth", "top_rest_error", "rms_motion"
 PER_CALL_MARK = "*"  # after an engine's µs/step: timed one step per call, the only way it can be stepped
 
 
+def _timed(value: float | None, spread: float | None, rec: Record) -> str:
+    if value is None:
+        return "-"
+    text = f"{value:.3g}" if value < 1000 else f"{value:.0f}"
+    if spread is not None:
+        text += f" +{100 * spread:.0f}%"
+    return text + (UNSTABLE_MARK if rec.timing.get("unstable") else "")
+
+
 def step_time(rec: Record) -> str:
-    """A record's µs/step for a table; an engine's, which is its µs/call, marked (see DEFINITIONS)."""
-    text = number(rec.us_per_step, ".2f")
+    """A record's µs/step for a table, with its spread: ``5.31 +2%``; ``!`` after it when the timing is
+    unstable; an engine's, which is its µs/call, marked ``*`` (see DEFINITIONS)."""
+    text = _timed(rec.us_per_step, rec.timing.get("spread"), rec)
     return text + PER_CALL_MARK if rec.us_per_step is not None and rec.timing.get("one_step_per_call") else text
+
+
+def call_time(rec: Record) -> str:
+    """A record's µs/call for a table, with its spread, as ``step_time``."""
+    return _timed(rec.us_per_call, rec.timing.get("call_spread"), rec)
+
+
+def unstable_note(res: CaseResult) -> str:
+    """The line under a case's table when a timing in it is unstable; empty otherwise."""
+    flagged = [r for r in res.records if r.timing.get("unstable")]
+    if not flagged:
+        return ""
+    first = flagged[0]
+    return (f"{UNSTABLE_MARK} {len(flagged)} timing{'s' if len(flagged) > 1 else ''} unstable (e.g. {first.solver}"
+            f"{f' {first.value}' if first.knob else ''}: {first.timing['unstable']}): fronts and winners resting "
+            "on them may differ in another bench")
 
 
 def per_call_note(res: CaseResult) -> str:
@@ -151,4 +191,9 @@ def shown(rec: Record) -> dict[str, str]:
         figures["error_max"] += skipped
     for k in MEASURES:
         figures[k] = number(m.get(k), "g" if k.startswith("steps_") else ".3g")
+    for verdict in rec.criteria.values():  # a measure judged against a limit shows the digits that tell them apart
+        for check in verdict["checks"]:
+            key = check["measure"].strip("|")
+            if key in figures and m.get(key) is not None:
+                figures[key] = format(m[key], f".{digits(check['value'], check['limit'])}g")
     return figures

@@ -10,9 +10,10 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-from stackx.bench.compare import by_solver, failing, label, outcomes, why
+from stackx.bench.compare import by_solver, failing, label, outcomes, unstable, why
 from stackx.bench.markup import esc, number, swatch, td
 from stackx.bench.sweep import Record
+from stackx.bench.result import step_time
 
 if TYPE_CHECKING:
     from stackx.bench.result import CaseResult
@@ -25,6 +26,9 @@ WORDS = {
     "moving": "not settled: the final RMS motion is at or above the settled limit",
     "launched": "a box that had touched something moved up faster than the launch limit",
     "crushed": "a box passed half-way into another",
+    "drifted": "a box placed at rest ended farther sideways from where it started than the drift limit",
+    "turned": "a box placed at rest ended turned by more than the turn limit",
+    "slides wrong": "the box on the ramp slid with an acceleration farther from the analytic one than the limit",
     "blew up": "the run went non-finite or faster than limits.max_speed",
 }
 
@@ -42,7 +46,7 @@ def summary_html(results: list[CaseResult]) -> str:
             cells += [td("none passes", "fail l"), td("-")]
         else:
             cells += [f'<td class="l pass"><b>{swatch(best.solver)}</b>{esc(_knob(best))}</td>',
-                      td(number(best.us_per_step, ".3g"))]
+                      td(step_time(best), "warn" if unstable(best) else "", best.timing.get("unstable") or None)]
         runs = {r.solver: r for r in shown}
         for solver in solvers:
             rec = runs.get(solver)

@@ -1,8 +1,22 @@
 """Microseconds per step, measured apart from the batched runs that give the measures.
 
 The rows of a batch share one call, so a row's own time cannot be read from it; each knob value is timed
-in short runs of its own, from the scene's start, and the median of a few repeats is kept (a 2-core
-machine shared with other work is noisy). These are the only numbers of a bench that change from run to run.
+in short runs of its own, from the scene's start. Every repeat is kept; the figure is the **minimum** (as
+asv and google-benchmark report: other work on the machine only ever adds time, so the fastest repeat is the
+one least disturbed) and beside it the **spread**, how far the median repeat is above the minimum, as a
+share of it. A spread above ``UNSTABLE`` says the machine was too busy for the figure to be trusted, and so
+does a µs/step above its µs/call (stepping many steps in one call does less than one call per step, so it
+can only come out slower by noise): such a figure is flagged ``unstable``, and fronts and winners that rest
+on it say so. These are the only numbers of a bench that change from run to run; verdicts never read them.
+
+The clock is the CPU time of the timing thread (``time.thread_time``; compiled kernels run on it, on one
+thread, see ``one_thread``), not the wall clock: on a machine shared with other work a timed run of a
+millisecond is often taken off the CPU for many milliseconds, which a wall clock adds to its figure (two
+benches once read 9 and 480 µs/step for the same run) and a CPU clock does not. What other work still does
+to the timed thread (caches, memory bandwidth) shows in the spread.
+
+The two ways of stepping alternate within each repeat, and their order alternates between repeats, so a
+burst of other work falls on both alike rather than on one.
 
 Two times are kept. ``us_per_step`` advances the run's steps in one call, as ``stackx run`` does: the cost
 of the stepping itself. ``us_per_call`` advances one step per call, as a game loop or an engine bound to
@@ -29,6 +43,32 @@ from stackx import kernel
 from stackx.bench.case import Timing
 from stackx.spec import RunSpec
 
+CLOCK = time.thread_time  # seconds of CPU this thread has used: time the machine gave to other work is not counted
+UNSTABLE = 0.25  # spread (median repeat over the fastest, minus 1) above which a figure is flagged
+
+
+def spread(repeats: list[float]) -> float:
+    """How far the median repeat is above the fastest, as a share of it: 0 when they agree."""
+    best = min(repeats)
+    return statistics.median(repeats) / best - 1.0 if best > 0 else 0.0
+
+
+def summary(times: list[float], calls: list[float], per_call_only: bool) -> dict[str, Any]:
+    """The timing record of measured repeats (µs per step, one step per call): minimum, spread, every repeat,
+    and whether the figures are ``unstable`` (a large spread, or µs/step above µs/call), with why."""
+    step = calls if per_call_only else times
+    out: dict[str, Any] = {"us_per_step": min(step), "us_per_call": min(calls), "spread": spread(step),
+                           "call_spread": spread(calls), "repeats": step, "call_repeats": calls}
+    why = []
+    if max(out["spread"], out["call_spread"]) > UNSTABLE:
+        why.append(f"the median repeat is {100 * max(out['spread'], out['call_spread']):.0f}% above the fastest")
+    if out["us_per_step"] > out["us_per_call"]:
+        why.append("µs/step came out above µs/call")
+    out["unstable"] = "; ".join(why)
+    if per_call_only:
+        out["one_step_per_call"] = True
+    return out
+
 
 @contextmanager
 def one_thread() -> Iterator[None]:
@@ -50,9 +90,9 @@ def one_thread() -> Iterator[None]:
 
 def time_run(run: RunSpec, timing: Timing) -> dict[str, Any]:
     """Microseconds per step of ``run`` alone, stepped in one call (``us_per_step``) and one step per call
-    (``us_per_call``): each the median of ``timing.repeats`` runs of up to ``timing.steps`` steps from the
-    scene's start (stopping before the first scene event), after one untimed warm-up step, compiled (unless
-    ``STACKX_JIT=0``)."""
+    (``us_per_call``): each the fastest of ``timing.repeats`` runs of up to ``timing.steps`` steps from the
+    scene's start (stopping before the first scene event), after an untimed warm-up of both ways of stepping,
+    compiled (unless ``STACKX_JIT=0``); with every repeat and the spread (``summary``)."""
     events = [e.step for e in run.scene.events()]
     steps = min([timing.steps, run.steps, *events])
     per_call_only = bool(getattr(run.solver_cls, "one_step_per_call", False))
@@ -64,27 +104,37 @@ def time_run(run: RunSpec, timing: Timing) -> dict[str, Any]:
             solver.advance(state, 0)  # an engine builds its world on its first call: not a step, not timed
         return solver, state
 
+    def in_one_call() -> float:
+        solver, state = fresh()
+        t0 = CLOCK()
+        solver.advance(state, steps)
+        return 1e6 * (CLOCK() - t0) / steps
+
+    def per_call() -> float:
+        solver, state = fresh()
+        t0 = CLOCK()
+        for _ in range(steps):
+            solver.advance(state, 1)
+        return 1e6 * (CLOCK() - t0) / steps
+
     try:
         with kernel.compiled(kernel.enabled()):
             solver, state = fresh()
             solver.advance(state, 1)  # loads the compiled kernels; not timed
-            times, calls = [], []
-            for _ in range(timing.repeats):
-                if not per_call_only:
-                    solver, state = fresh()
-                    t0 = time.perf_counter()
-                    solver.advance(state, steps)
-                    times.append(1e6 * (time.perf_counter() - t0) / steps)
-                solver, state = fresh()
-                t0 = time.perf_counter()
-                for _ in range(steps):
-                    solver.advance(state, 1)
-                calls.append(1e6 * (time.perf_counter() - t0) / steps)
+            if not per_call_only:
+                solver.advance(state, 2)  # and those of many steps in one call, if they differ
+            times: list[float] = []
+            calls: list[float] = []
+            for k in range(timing.repeats):
+                if per_call_only:
+                    calls.append(per_call())
+                elif k % 2 == 0:
+                    times.append(in_one_call())
+                    calls.append(per_call())
+                else:
+                    calls.append(per_call())
+                    times.append(in_one_call())
     except Exception as exc:  # a solver that fails on its own is reported by the measured run, not here
         return {"us_per_step": None, "us_per_call": None, "steps": steps, "repeats": [], "call_repeats": [],
                 "failed": f"{type(exc).__name__}: {exc}"}
-    if per_call_only:
-        return {"us_per_step": statistics.median(calls), "us_per_call": statistics.median(calls), "steps": steps,
-                "repeats": calls, "call_repeats": calls, "one_step_per_call": True}
-    return {"us_per_step": statistics.median(times), "us_per_call": statistics.median(calls), "steps": steps,
-            "repeats": times, "call_repeats": calls}
+    return {**summary(times, calls, per_call_only), "steps": steps}

@@ -24,7 +24,7 @@ def test_a_failing_cell_names_every_measure_that_failed_at_the_largest_knob() ->
     sunk = {"max_depth": 2.2, "reach": 4.4, "rms_motion": 0.5}
     got = cell([_record(4, launch=3.0), _record(64, **sunk)])
     assert not got.passed and got.shown == 64
-    assert got.short() == "FAIL max_depth reach rms_motion"
+    assert got.short() == "FAIL overlaps, crushed, moving"  # the words the report's summary uses
     assert got.text().startswith("FAIL at iterations 64: holds: max_depth 2.2 > 0.02; reach 4.4 > 1; settled:")
 
 
@@ -38,14 +38,14 @@ def test_a_blown_up_cell_says_so() -> None:
     rec.criteria = {name: {"passed": False, "failing": "blew up", "checks": []}
                     for name in ("holds", "settled", "never_launched")}
     got = cell([rec])
-    assert got.short() == "FAIL blew up" and got.failing == "blew up: at step 3"
+    assert got.short() == "FAIL blew up at step 3" and got.failing == "blew up: at step 3"
 
 
 def test_a_crushed_cell_says_where_and_shows_no_figure() -> None:
     rec = _record(64, max_depth=114.0, reach=228.0, top_rest_error=-3228.0)
     rec.crushed_at = 40
     got = cell([_record(4, launch=3.0), rec])
-    assert not got.passed and got.short() == "CRUSHED" and got.crushed_at == 40
+    assert not got.passed and got.short() == "FAIL crushed at step 40" and got.crushed_at == 40
     assert got.text() == ("FAIL at iterations 64: crushed at step 40 (boxes passed through each other; its figures "
                           "are left out)")
 
