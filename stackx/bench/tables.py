@@ -66,7 +66,8 @@ def compact_table(res: CaseResult) -> Table:
         else:
             at = f" at {_knob(r)}" if r.knob else ""
             verdict = f"[red]fail[/]{escape(at)}: {escape(why(r))}"
-        table.add_row(escape(r.solver), _knob(r) if r.passed else "-", escape(step_time(r)), verdict)
+        passes = (_knob(r) if r.knob else "no knob") if r.passed else "-"
+        table.add_row(escape(r.solver), passes, escape(step_time(r)), verdict)
     notes = [n for n in (per_call_note(res), unstable_note(res)) if n]
     if notes:
         table.caption, table.caption_justify = "\n".join(notes), "left"

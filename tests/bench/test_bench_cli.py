@@ -478,3 +478,27 @@ def test_hard_configs_validate_and_name_every_case(cli: Cli) -> None:
                      "drop-200", "recovery-10", "recovery-100", "recovery-1000"}
     done = cli("validate", REPO / "configs" / "hard")
     assert done.returncode == 0, done.stderr
+
+
+def test_the_terminal_output_fits_80_columns(bench_out: Path, tmp_path: Path) -> None:
+    """By default each case is a short table (solver, smallest passing knob, µs/step with its spread, verdict in
+    the summary's words) and what it comes to, every line within 80 columns; ``--wide`` (the fixture's) adds
+    the full tables and the matrix."""
+    import os
+
+    solvers = "pgs,warm-start,split-impulse,exact,soft-step"
+    done = subprocess.run([sys.executable, "-m", "stackx", "bench", str(bench_out / "cases"), "--solvers", solvers,
+                           "--out", str(tmp_path / "out")], cwd=REPO, capture_output=True, text=True, timeout=600,
+                          env={**os.environ, "COLUMNS": "80"})
+    assert done.returncode == 0, done.stderr
+    lines = done.stdout.splitlines()
+    assert max(len(line) for line in lines) <= 80, max(lines, key=len)
+    assert "stability matrix" not in done.stdout and "passes from" in done.stdout
+    doc = json.loads((tmp_path / "out" / "bench.json").read_text())
+    for case in doc["cases"]:
+        assert f"{case['name']}: " in done.stdout
+        for solver in solvers.split(","):
+            assert any(line.split()[:1] == [solver] for line in lines), solver
+        for shown in case["shown"]:
+            if not shown["passed"]:
+                assert shown["why"].split(",")[0] in done.stdout  # the summary's words, not the measures' names
