@@ -28,11 +28,18 @@ from __future__ import annotations
 
 from collections.abc import Collection, Mapping
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from pydantic import BaseModel, ConfigDict, Field
 
+if TYPE_CHECKING:
+    from stackx.results import RunResult
+
 NAMES = ("holds", "settled", "never_launched")
+WORDS = {"max_depth": "overlaps", "max_gap": "gap", "reach": "crushed", "rms_motion": "moving",
+         "launch": "launched", "drift_x": "drifted", "drift_angle": "turned", "slide_error": "slides wrong"}
+# a failed check in a word, the one word every output (``stackx run``, the bench's terminal and report) uses
+# for it; |top_rest_error| is 'sunk' or 'high' by its sign (``word``)
 
 
 class Criteria(BaseModel):
@@ -158,3 +165,36 @@ def judge(measures: Mapping[str, Any], criteria: Criteria, unjudged: Collection[
 def passed(verdicts: Mapping[str, Verdict]) -> bool:
     """A case is passed when every criterion is."""
     return all(v.passed for v in verdicts.values())
+
+
+def word(measure: str, measures: Mapping[str, Any]) -> str:
+    """A failed check of ``measure`` in a word (``WORDS``): the top box's rest error is 'sunk' or 'high'."""
+    if measure == "|top_rest_error|":
+        return "sunk" if float(measures.get("top_rest_error", 0.0)) < 0 else "high"
+    return WORDS.get(measure, measure)
+
+
+def failed_words(verdicts: Mapping[str, Verdict], measures: Mapping[str, Any]) -> str:
+    """What failed, in words: ``drifted, turned, launched``; empty when every criterion passed."""
+    words = [word(c.measure, measures) for v in verdicts.values() for c in v.checks if not c.passed]
+    return ", ".join(dict.fromkeys(words))
+
+
+def states_outcome(scene: Any) -> bool:
+    """Whether a scene states what must hold: boxes placed where they must stay (``rests``), or a ramp whose
+    box must slide or stick as the analytic answer says (``slope``)."""
+    return bool(getattr(scene, "rests", list)()) or getattr(scene, "slope", lambda: None)() is not None
+
+
+def run_verdicts(result: RunResult, criteria: Criteria | None) -> tuple[dict[str, Verdict], dict[str, float]] | None:
+    """The three verdicts of a finished run of ``stackx run``, judged as the bench judges it, and the measures
+    they read, where there is something stated to judge: the config has a ``bench:`` section (``criteria``,
+    its limits), or its scene states what must hold (``states_outcome``; judged with the default limits).
+    None otherwise: a run that states nothing is not judged."""
+    run = result.spec
+    if criteria is None and not states_outcome(run.scene):
+        return None
+    found = {k: float(v) for k, v in result.measures.items() if isinstance(v, (int, float))}
+    found.update(run.model.bench_measures(result, False))
+    return judge(found, criteria or Criteria(), run.model.unjudged(run)), found
+

@@ -129,15 +129,44 @@ def summary(results: list[ExperimentResult], out: Path, wide: bool = False) -> T
         table.add_column(head, justify="right", no_wrap=True)
     names = [k for k, _, _ in MEASURED] + (["launch", "reach"] if wide else [])
     form = ".6g" if wide else ".3g"
+    verdicts = {id(r): verdict(r, getattr(result.spec, "bench", None)) for result in results for r in result.runs}
+    judged = any(v is not None for v in verdicts.values())
+    if judged:  # some scene states what must hold: say whether it did, and below the table what failed
+        table.add_column("verdict", no_wrap=True)
+        failed = [f"{result.spec.name}/{r.name}: {verdicts[id(r)][1]}" for result in results for r in result.runs
+                  if verdicts[id(r)] and verdicts[id(r)][1]]  # type: ignore[index]
+        table.caption = "\n".join([*(f"FAIL {line}" for line in failed), "verdict: judged as stackx bench judges "
+                                    "it, where the config has a bench section or the scene states what must "
+                                    "hold", table.caption or ""])
+        table.caption_justify = "left"
     for result in results:
         if not result.runs:
-            table.add_row(result.spec.name, "-", *["-"] * (3 + len(names)))
+            table.add_row(result.spec.name, "-", *["-"] * (3 + len(names) + judged))
         for r in result.runs:
             how = "jit" if r.compiled else "py"
             table.add_row(f"{result.spec.name}/{r.name}", r.spec.solver_cls.plugin_name, str(r.spec.scene.final_size()),
                           str(r.spec.steps), *(_number(r.measures, k, form) for k in names),
-                          f"{r.us_per_step:{form}} {how}")
+                          f"{r.us_per_step:{form}} {how}", *([_verdict_cell(verdicts[id(r)])] if judged else []))
     return table
+
+
+def verdict(run: Any, bench: Any) -> tuple[bool, str] | None:
+    """A run's verdict (``stackx.criteria.run_verdicts``): (passed, what failed in the bench's words and
+    with the values and limits); None for a run whose config states nothing to judge."""
+    from stackx.criteria import failed_words, passed, run_verdicts
+
+    judged = run_verdicts(run, bench.criteria if bench is not None else None)
+    if judged is None:
+        return None
+    found, measures = judged
+    if passed(found):
+        return True, ""
+    detail = "; ".join(f"{name}: {v.failing}" for name, v in found.items() if not v.passed)
+    return False, f"{failed_words(found, measures)} ({detail})"
+
+
+def _verdict_cell(found: tuple[bool, str] | None) -> str:
+    return "-" if found is None else "[green]pass[/]" if found[0] else "[red]FAIL[/]"
 
 
 def _number(measures: dict[str, Any], name: str, form: str) -> str:

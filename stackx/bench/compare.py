@@ -24,6 +24,7 @@ from typing import Any
 
 from stackx.bench.plan import CASE
 from stackx.bench.sweep import Record
+from stackx.criteria import word
 
 TARGETS = (1e-1, 1e-2, 1e-3, 1e-4, 1e-6)  # error levels (m/s) at which solvers are compared at equal cost
 TIE = 0.2  # times within this share of each other are the same cost
@@ -192,12 +193,6 @@ def chosen(records: list[Record]) -> Record:
     return next((r for r in recs if r.passed), recs[-1])
 
 
-SHORT = {"max_depth": "overlaps", "max_gap": "gap", "reach": "crushed", "rms_motion": "moving",
-         "launch": "launched", "drift_x": "drifted", "drift_angle": "turned", "slide_error": "slides wrong"}
-# a failed check in a word, the one word every output (terminal, report, matrix) uses for it;
-# |top_rest_error| is 'sunk' or 'high' by its sign
-
-
 def why(rec: Record) -> str:
     """Why a run failed, in a few words: ``overlaps, sunk, moving``; ``blew up at step 40``; ``crushed at step
     12``. ``failing`` has the values and limits."""
@@ -211,10 +206,7 @@ def why(rec: Record) -> str:
         for check in verdict["checks"]:
             if check["passed"]:
                 continue
-            if check["measure"] == "|top_rest_error|":
-                words.append("sunk" if rec.measures.get("top_rest_error", 0.0) < 0 else "high")
-            else:
-                words.append(SHORT.get(check["measure"], check["measure"]))
+            words.append(word(check["measure"], rec.measures))
     return ", ".join(dict.fromkeys(words))
 
 
