@@ -37,7 +37,7 @@ details > summary > h2, details > summary > h3 { display: inline; font-size: 1.1
 details.case { border-top: 1px solid #ddd; padding-top: .3em; } details.case[open] { padding-bottom: .8em; }
 span.verdict { color: #555; margin-left: .6em; }
 div.states { display: flex; flex-wrap: wrap; gap: .6em; } figure.state { margin: 0; text-align: center; }
-figure.state img { width: 192px; image-rendering: pixelated; } figure.state figcaption { font-size: 12px; }
+figure.state img { max-height: 360px; max-width: 360px; image-rendering: pixelated; } figure.state figcaption { font-size: 12px; }
 figcaption.pass { color: #1d6b1d; } figcaption.fail { color: #9b2a1a; }
 """
 
@@ -229,6 +229,13 @@ def _case_html(res: CaseResult, pictures: dict[str, str], states: list[Snapshot]
         parts.append("<p class=note>No picture: no run has a series to draw (every run blew up).</p>")
     if states:
         parts.append("<h3>Start and final states</h3>" + _states_html(states))
+    if "drift" in pictures:
+        parts.append(f'<h3>Drift of the boxes placed at rest</h3><p><img src="{pictures["drift"]}" alt="sideways '
+                     f'drift and turn of each box placed at rest, against its height, {esc(res.name)}"></p>'
+                     "<p class=note>Each box the scene places where it should stay, at the height it started, "
+                     "and how far it ended sideways and turned, for each solver at the knob value the summary "
+                     "shows; the axes span four times the limits (dotted), so millimetres show on a tall pile; "
+                     "a box beyond them (toppled, slid off) is a triangle at the edge.</p>")
     parts.append("<h3>Speed against error</h3>")
     if "speed" in pictures:
         parts.append(f'<p><img src="{pictures["speed"]}" alt="speed against error, {esc(res.name)}"></p>')

@@ -229,3 +229,66 @@ def _limit(ax: Any, value: float, text: str) -> None:
     ax.axhline(value, color="0.3", ls=":", lw=1)
     ax.annotate(text, (0.99, value), xycoords=("axes fraction", "data"), ha="right", va="bottom", fontsize=7,
                 color="0.3")
+
+
+BEYOND = 4.0  # a drift profile's axis spans this many times the limit either way; farther runs sit at its edge
+
+
+def drift_profile_png(title: str, shown: list[Record], start: Any, rests: list[int],
+                      limits: tuple[float, float]) -> bytes | None:
+    """``drift_profile_figure`` as PNG bytes; None when it has nothing to draw."""
+    fig = drift_profile_figure(title, shown, start, rests, limits)
+    if fig is None:
+        return None
+    try:
+        return _png(fig)
+    finally:
+        _pyplot().close(fig)
+
+
+def drift_profile_figure(title: str, shown: list[Record], start: Any, rests: list[int],
+                         limits: tuple[float, float]) -> Any:
+    """Where each box placed at rest ended, against the height it started at: two panels, its sideways drift
+    (mm) and its turn (degrees), one line per record of ``shown`` with a final state, the limits dotted. The
+    axes span ``BEYOND`` times the limits, so a millimetre's drift or a tenth of a degree shows on a pile of
+    forty metres; a box beyond (toppled, slid off) is drawn at the edge as a triangle pointing out. A figure
+    the caller closes, or None when no box rests or no run has a final state."""
+    drawn = [r for r in shown if r.final is not None]
+    if not rests or not drawn:
+        return None
+    plt = _pyplot()
+    idx = list(rests)
+    heights = [float(start.y[0, i]) for i in idx]
+    fig, (side, turn) = plt.subplots(1, 2, figsize=(11.5, 4.2), dpi=100, sharey=True)
+    try:
+        for ax, limit, scale, unit in ((side, limits[0], 1e3, "mm"), (turn, limits[1], math.degrees(1.0), "°")):
+            edge = BEYOND * limit * scale
+            for r in drawn:
+                key = "x" if ax is side else "angle"
+                moved = [(float(getattr(r.final, key)[0, i]) - float(getattr(start, key)[0, i])) * scale for i in idx]
+                inside = [max(-edge, min(edge, m)) for m in moved]
+                style = dict(color=colour(r.solver), lw=1.2, ls="-" if r.passed else "--")
+                ax.plot(inside, heights, marker="o", ms=3, label=f"{label(r.solver, r.knob, r.value)}: "
+                        f"{'passed' if r.passed else 'failed'}" if ax is side else None, **style)
+                for sign, mark in ((1, ">"), (-1, "<")):
+                    out = [h for m, h in zip(moved, heights) if sign * m > edge]
+                    if out:
+                        ax.plot([sign * edge] * len(out), out, mark, color=style["color"], ms=7, ls="none")
+            for sign in (-1, 1):
+                ax.axvline(sign * limit * scale, color="0.3", ls=":", lw=1)
+            ax.axvline(0.0, color="0.7", lw=0.8)
+            ax.set_xlim(-edge * 1.05, edge * 1.05)
+            ax.annotate(f"limit ±{limit * scale:.3g} {unit}", (limit * scale, 1.0), xycoords=("data", "axes fraction"),
+                        ha="left", va="top", fontsize=7, color="0.3")
+            ax.grid(True, lw=0.3, alpha=0.5)
+            ax.tick_params(labelsize=8)
+        side.set_xlabel("sideways drift at the end (mm; triangles: beyond the axis)")
+        turn.set_xlabel("turn at the end (degrees)")
+        side.set_ylabel("height at the start (m)")
+        side.set_title(f"{title}: where each box placed at rest ended, from where it started", fontsize=9)
+        fig.legend(fontsize=7, loc="center left", bbox_to_anchor=(0.745, 0.5), frameon=False)
+        fig.subplots_adjust(left=0.06, right=0.73, bottom=0.13, top=0.92, wspace=0.08)
+        return fig
+    except BaseException:
+        plt.close(fig)
+        raise

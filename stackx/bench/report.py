@@ -21,7 +21,7 @@ from stackx import __version__, manifest
 from stackx.bench.compare import matrix, outcomes, why
 from stackx.bench.markup import png_uri
 from stackx.bench.page import report_html
-from stackx.bench.plots import rest_height, speed_error_png, trajectories_png
+from stackx.bench.plots import drift_profile_png, rest_height, speed_error_png, trajectories_png
 from stackx.bench.snapshots import snapshots
 from stackx.bench.result import DEFINITIONS, CaseResult
 from stackx.bench.sweep import Record
@@ -99,14 +99,20 @@ def _finite(value: Any) -> Any:
 
 
 def pictures(res: CaseResult) -> dict[str, str]:
-    """A case's plots as ``data:`` URIs: ``time`` (against time) and ``speed`` (speed against error), each when
-    there is something to draw."""
+    """A case's plots as ``data:`` URIs: ``time`` (against time), ``drift`` (where the boxes placed at rest
+    ended, on a planar scene) and ``speed`` (speed against error), each when there is something to draw."""
     out = {}
     crit = res.case.section.criteria
     time_png = trajectories_png(res.name, outcomes(res.records), crit.depth_limit, rest_height(res.records),
                                 (crit.drift, crit.turn))
     if time_png is not None:
         out["time"] = png_uri(time_png)
+    scene = res.case.run.scene
+    rests = getattr(scene, "rests", list)()  # a scene plugin of another author may not say which boxes rest
+    if rests:
+        drift_png = drift_profile_png(res.name, outcomes(res.records), scene.build(), rests, (crit.drift, crit.turn))
+        if drift_png is not None:
+            out["drift"] = png_uri(drift_png)
     speed_png = speed_error_png(res.name, res.records)
     if speed_png is not None:
         out["speed"] = png_uri(speed_png)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import pytest
 
@@ -65,3 +66,33 @@ def test_marker_sizes_widen_only_markers_drawn_over_by_another_solver() -> None:
     solvers = ["a", "b", "c", "a", "a"]
     assert marker_sizes(pixels, solvers, 100) == [MARKER + 2 * RING, MARKER + RING, MARKER, MARKER, MARKER]
     assert marker_sizes([(0.0, 0.0), (1.01 * width, 0.0)], ["a", "b"], 100) == [MARKER, MARKER]
+
+
+def test_the_drift_profile_shows_millimetres_and_pins_what_is_beyond(tmp_path: Path) -> None:
+    """A stack of five placed at rest; one run's boxes ended 1, 2, 3, 4 mm to the right of where they started
+    and the top one 3 m away (slid off): the sideways panel spans four times the 50 mm limit, draws the four at
+    their millimetres and the fifth as a triangle at the right edge; the turn panel the same in degrees."""
+    from stackx.bench.plots import BEYOND, drift_profile_figure, _pyplot
+    from stackx.config import load
+
+    (tmp_path / "pile.yaml").write_text("scene: {name: planar, stack: {count: 5, friction: 0.6}}\n"
+                                        "solver: {name: planar-exact}\nsteps: 1\n")
+    scene = load(str(tmp_path / "pile.yaml")).runs[0].scene
+    start, final = scene.build(), scene.build()
+    final.x[0] += [0.001, 0.002, 0.003, 0.004, 3.0]
+    final.angle[0, 2] += 0.01
+    rec = run("planar-exact", 1.0, 1e-3)
+    rec.final = final
+    fig = drift_profile_figure("pile", [rec], start, scene.rests(), (0.05, 0.05))
+    try:
+        side, turn = fig.axes[:2]
+        assert side.get_xlim() == pytest.approx((-BEYOND * 50 * 1.05, BEYOND * 50 * 1.05))
+        line = next(ln for ln in side.get_lines() if ln.get_label().startswith("planar-exact"))
+        assert list(line.get_xdata()) == pytest.approx([1.0, 2.0, 3.0, 4.0, BEYOND * 50])  # mm; the fifth pinned
+        assert list(line.get_ydata()) == pytest.approx([0.5, 1.5, 2.5, 3.5, 4.5])
+        beyond = next(ln for ln in side.get_lines() if ln.get_marker() == ">")
+        assert list(beyond.get_ydata()) == [4.5]
+        turned = next(ln for ln in turn.get_lines() if len(ln.get_xdata()) == 5)
+        assert turned.get_xdata()[2] == pytest.approx(math.degrees(0.01))
+    finally:
+        _pyplot().close(fig)
