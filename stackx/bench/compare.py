@@ -11,8 +11,10 @@ definition, not by merit (the report shows its time beside the winners instead).
 Times are compared with a tolerance: two figures within ``TIE`` of each other are the same cost, since a
 timing on a shared machine moves by that much between benches (``stackx.bench.timing``). A run leaves the
 front only for one that is at least as accurate and clearly faster, or more accurate and not clearly slower;
-an equal-cost winner names the runs tied with it. Fronts and winners then stay put from bench to bench unless
-a figure moved by more than the tolerance, and any that rests on a figure flagged unstable says so.
+an equal-cost winner names the runs tied with it. The front keeps a run unless another beats it even with both
+times moved against it by their noise (their spread, at least ``NOISE``), and marks it ``borderline`` when
+the noise could go either way, so two benches agree on the front unless a figure moved beyond its noise; any
+front or winner that rests on a figure flagged unstable says so.
 """
 
 from __future__ import annotations
@@ -28,6 +30,7 @@ from stackx.criteria import word
 
 TARGETS = (1e-1, 1e-2, 1e-3, 1e-4, 1e-6)  # error levels (m/s) at which solvers are compared at equal cost
 TIE = 0.2  # times within this share of each other are the same cost
+NOISE = 0.05  # the least share by which a time is taken to be uncertain (more where its spread says so)
 
 
 def clearly_faster(a: float, b: float) -> bool:
@@ -128,19 +131,34 @@ def contenders(records: Iterable[Record]) -> list[Record]:
     return [r for r in measured(records) if r.passed]
 
 
-def dominates(a: Record, b: Record) -> bool:
+def noise(rec: Record) -> float:
+    """How far a record's time may be off, as a share: its spread, at least ``NOISE``."""
+    return max(NOISE, float(rec.timing.get("spread") or 0.0))
+
+
+def dominates(a: Record, b: Record, lean: int = 0) -> bool:
     """Whether run ``a`` beats ``b`` on speed against error: at least as accurate and clearly faster, or more
-    accurate and not clearly slower (times within ``TIE`` are the same cost)."""
-    ta, tb, ea, eb = a.us_per_step, b.us_per_step, a.error["rms"], b.error["rms"]
-    return (ea <= eb and clearly_faster(ta, tb)) or (ea < eb and not clearly_faster(tb, ta))  # type: ignore[arg-type, operator]
+    accurate and not clearly slower (times within ``TIE`` are the same cost). ``lean`` moves both times by
+    their noise: +1 in ``a``'s favour (``a`` as fast as it could be, ``b`` as slow), -1 against it."""
+    ta = a.us_per_step * (1.0 - lean * noise(a))  # type: ignore[operator]
+    tb = b.us_per_step * (1.0 + lean * noise(b))  # type: ignore[operator]
+    ea, eb = a.error["rms"], b.error["rms"]
+    return (ea <= eb and clearly_faster(ta, tb)) or (ea < eb and not clearly_faster(tb, ta))
 
 
 def pareto(records: Iterable[Record]) -> list[Record]:
-    """The speed-against-error front of the runs that passed: those no other such run beats (``dominates``),
-    fastest first."""
+    """The speed-against-error front of the runs that passed, fastest first: those that no other such run beats
+    (``dominates``) with both times moved by their noise in the run's favour. A run beaten only at the times
+    as measured, or only when they move the other way, is on the front and ``borderline``: another bench may
+    put it either side."""
     runs = contenders(records)
-    front = [r for r in runs if not any(dominates(o, r) for o in runs if o is not r)]
+    front = [r for r in runs if not any(dominates(o, r, lean=-1) for o in runs if o is not r)]
     return sorted(front, key=lambda r: (r.us_per_step, r.error["rms"]))  # type: ignore[arg-type, return-value]
+
+
+def borderline(rec: Record, records: Iterable[Record]) -> bool:
+    """Whether a run on the front could be beaten with the timings leaning against it by their noise."""
+    return any(dominates(o, rec, lean=1) for o in contenders(records) if o is not rec)
 
 
 def cheapest(records: Iterable[Record], target: float) -> dict[str, Record]:
@@ -160,7 +178,7 @@ def equal_cost(records: list[Record], targets: Iterable[float] = TARGETS) -> lis
     for target in targets:
         by_solver = cheapest(records, target)
         ranked = sorted(by_solver.values(), key=lambda r: r.us_per_step)  # type: ignore[arg-type, return-value]
-        tied = [r for r in ranked[1:] if not clearly_faster(ranked[0].us_per_step, r.us_per_step)]  # type: ignore[arg-type]
+        tied = [r for r in ranked[1:] if tie(ranked[0], r)]
         rows.append({"target": target,
                      "winner": ranked[0].solver if ranked else None,
                      "tied": [r.solver for r in tied],
@@ -170,10 +188,16 @@ def equal_cost(records: list[Record], targets: Iterable[float] = TARGETS) -> lis
     return rows
 
 
+def tie(best: Record, other: Record) -> bool:
+    """Whether ``other``'s time is within ``TIE`` of the faster ``best``'s once both are moved toward each other
+    by their noise: the two cannot be told apart by this bench."""
+    return not clearly_faster(best.us_per_step * (1 + noise(best)), other.us_per_step * (1 - noise(other)))  # type: ignore[operator]
+
+
 def tied_with(best: Record, shown: list[Record]) -> list[Record]:
-    """The passing runs of ``shown`` (each solver's, ``outcomes``) whose time is within ``TIE`` of ``best``'s."""
+    """The passing runs of ``shown`` (each solver's, ``outcomes``) tied with ``best`` (``tie``)."""
     return [r for r in shown if r is not best and r.passed and best.us_per_step is not None
-            and r.us_per_step is not None and not clearly_faster(best.us_per_step, r.us_per_step)]
+            and r.us_per_step is not None and tie(best, r)]
 
 
 def by_solver(records: Iterable[Record]) -> dict[str, list[Record]]:

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import json
 
-from stackx.bench.compare import TIE, Cell, case_records, failing, label, matrix, outcomes, tied_with, unstable
+from stackx.bench.compare import TIE, Cell, borderline, case_records, failing, label, matrix, outcomes, tied_with, unstable
 from stackx.bench.markup import esc, number, swatch, table, td
 from stackx.bench.result import DEFINITIONS, CaseResult, call_time, per_call_note, shown, step_time, unstable_note
 from stackx.bench.snapshots import Snapshot
@@ -243,10 +243,13 @@ def _case_html(res: CaseResult, pictures: dict[str, str], states: list[Snapshot]
         parts.append("<p class=note>No plot: no run has both a time and an error against the exact solver.</p>")
     parts.append("<h3>Equal cost</h3>" + _equal_cost_html(res))
     if res.front:
-        front = ", ".join(label(r.solver, r.knob, r.value) for r in res.front)
+        front = ", ".join(label(r.solver, r.knob, r.value) + (" (borderline)" if borderline(r, res.records) else "")
+                          for r in res.front)
         shaky = [label(r.solver, r.knob, r.value) for r in res.front if unstable(r)]
         rests = (f" It rests on unstable timings ({', '.join(shaky)}): another bench may draw it otherwise."
-                 if shaky else f" Every time on it is stable; times within {100 * TIE:.0f}% count as the same cost.")
+                 if shaky else f" Every time on it is stable; times within {100 * TIE:.0f}% count as the same cost,"
+                 " and a run stays on it unless beaten beyond the timings' noise (borderline: another bench may "
+                 "leave it off).")
         parts.append(f"<p class=note>Pareto front of the runs that passed, fastest first: {esc(front)}.{esc(rests)}</p>")
     else:
         parts.append("<p class=note>No Pareto front: no run that passed has both a time and an error.</p>")

@@ -18,7 +18,7 @@ from pathlib import Path
 from typing import Any
 
 from stackx import __version__, manifest
-from stackx.bench.compare import matrix, outcomes, why
+from stackx.bench.compare import borderline, matrix, outcomes, why
 from stackx.bench.markup import png_uri
 from stackx.bench.page import report_html
 from stackx.bench.plots import drift_profile_png, rest_height, speed_error_png, trajectories_png
@@ -60,7 +60,8 @@ def _case_doc(res: CaseResult) -> dict[str, Any]:
                                "not_applicable": p.skipped, "claim_baseline": p.claim} for p in case.plans},
         "left_out": res.left_out,
         "records": [r.as_dict() for r in res.records],
-        "pareto": [{"solver": r.solver, "value": r.value} for r in res.front],
+        "pareto": [{"solver": r.solver, "value": r.value, "borderline": borderline(r, res.records)}
+                   for r in res.front],
         "equal_cost": res.equal_cost,
         "claim": res.claim,
         "shown": [_shown_doc(r) for r in outcomes(res.records)],

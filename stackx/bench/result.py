@@ -92,12 +92,15 @@ DEFINITIONS = {
     "equal_cost": f"for each error level ({', '.join(f'{t:g}' for t in TARGETS)} m/s), the solver whose cheapest "
                   "run at or below that error takes the fewest microseconds per step, among runs that passed the "
                   "case (a run that fails is no answer, however fast and accurate its steps), with the solvers "
-                  f"tied with it (within {100 * TIE:.0f}%: the same cost, as timings go); the reference is left out "
+                  f"tied with it (within {100 * TIE:.0f}% once both times are moved toward each other by their "
+                  "noise: the same cost, as timings go); the reference is left out "
                   "(its error is zero by definition) and its time shown beside",
     "pareto": "among runs that passed the case, those that no other passing run beats: at least as accurate and "
               f"more than {100 * TIE:.0f}% faster, or more accurate and not {100 * TIE:.0f}% slower (times "
-              "closer than that are the same cost, so the front does not change with a timing's noise); the "
-              "reference left out; runs that failed are drawn hollow but never on the front",
+              "closer than that are the same cost), with both times moved in the run's favour by their noise "
+              "(their spread, at least 5%); a run beaten only without that move is on the front, marked "
+              "borderline ('?'): another bench may leave it off. The reference is left out; runs that failed are "
+              "drawn hollow but never on the front",
     "cheapest": "the case's answer in the summary: each solver at its smallest knob value that passed, and of "
                 "those the one with the fewest microseconds per step, the reference included (its time is as "
                 "real as any); the other solvers fail for the reasons their cells give, at the largest knob "

@@ -13,7 +13,7 @@ from rich.console import Console
 from rich.markup import escape
 from rich.table import Table
 
-from stackx.bench.compare import TIE, case_records, label, matrix, outcomes, tied_with, unstable, why
+from stackx.bench.compare import TIE, borderline, case_records, label, matrix, outcomes, tied_with, unstable, why
 from stackx.bench.markup import number
 from stackx.bench.result import (UNSTABLE_MARK, CaseResult, call_time, per_call_note, shown, step_time,
                                  unstable_note)
@@ -93,8 +93,9 @@ def answers(res: CaseResult) -> list[str]:
     lines = [line]
     if res.front:
         flagged = [r for r in res.front if unstable(r)]
-        front = ", ".join(label(r.solver, r.knob, r.value) for r in res.front)
-        lines.append(f"  front (speed against error, passed runs): {escape(front)}"
+        front = ", ".join(label(r.solver, r.knob, r.value) + ("?" if borderline(r, res.records) else "")
+                          for r in res.front)
+        lines.append(f"  front (speed against error, passed runs; ?: borderline): {escape(front)}"
                      + (f" [yellow]rests on {len(flagged)} unstable timing(s)[/]" if flagged else ""))
     winners = []
     for row in res.equal_cost:

@@ -7,7 +7,7 @@ from __future__ import annotations
 import random
 import statistics
 
-from stackx.bench.compare import equal_cost, pareto, tied_with
+from stackx.bench.compare import borderline, equal_cost, pareto, tied_with
 from stackx.bench.result import step_time
 from stackx.bench.sweep import Record
 from stackx.bench.timing import UNSTABLE, summary
@@ -51,33 +51,46 @@ def test_a_table_shows_each_figure_with_its_spread_and_its_flag() -> None:
     assert step_time(_run("pgs", 4, 5.314, 1e-3, spread=0.4, flag="noisy")) == "5.31 +40%!"
 
 
-RUNS = [("pgs", 4, 1.0, 1e-2), ("warm-start", 4, 1.05, 1e-2), ("pgs", 16, 3.0, 1e-3), ("ngs", 16, 3.1, 1e-4),
-        ("warm-start", 16, 6.0, 1e-5), ("xpbd", 8, 6.2, 1e-3)]
+RUNS = [("pgs", 4, 1.0, 1e-2), ("warm-start", 4, 1.05, 1e-2), ("pgs", 16, 3.0, 1e-3), ("ngs", 16, 3.03, 1e-4),
+        ("warm-start", 16, 6.0, 1e-5), ("xpbd", 8, 6.06, 1e-3)]
 
 
 def test_times_within_the_tolerance_are_one_cost() -> None:
-    """pgs 4 and warm-start 4: same error, 5% apart: both on the front. ngs 16 is 3% slower than pgs 16 and ten
-    times more accurate: pgs 16 leaves the front (a plain front keeps both, by 0.1 µs). xpbd 8 is slower than
-    warm-start 16 by 3% and less accurate: off."""
+    """pgs 4 and warm-start 4: same error, 5% apart: both on the front. ngs 16 is 1% slower than pgs 16 and ten
+    times more accurate: pgs 16 leaves the front (a plain front keeps both). xpbd 8 is slower than warm-start
+    16 by 1% and less accurate: off. None is borderline: no time is within its noise (5%) of the tolerance."""
     records = [_run(*r) for r in RUNS]
     assert [(r.solver, r.value) for r in pareto(records)] == [("pgs", 4), ("warm-start", 4), ("ngs", 16),
                                                              ("warm-start", 16)]
     row = next(r for r in equal_cost(records) if r["target"] == 1e-2)
     assert row["winner"] == "pgs" and row["tied"] == ["warm-start"] and row["unstable"] == []
     assert [r.solver for r in tied_with(records[0], records)] == ["warm-start"]
+    assert not any(borderline(r, records) for r in pareto(records))
+
+
+def test_a_run_within_the_noise_of_being_beaten_stays_on_the_front_marked_borderline() -> None:
+    """warm-start 8 against soft-step 4 (tall-20's pair): soft-step 4 is twice as accurate and 22% slower, just
+    past the tolerance. Measured so, warm-start 8 is on the front; had the times leaned 5% the other way it
+    would not be: it stays, marked borderline, and so it does when the next bench measures 19% instead."""
+    for slower in (1.224, 1.19):
+        records = [_run("warm-start", 8, 0.881, 0.0756), _run("soft-step", 4, 0.881 * slower, 0.0413)]
+        front = pareto(records)
+        assert [(r.solver, r.value) for r in front] == [("warm-start", 8), ("soft-step", 4)]
+        assert [borderline(r, records) for r in front] == [True, False]
 
 
 def test_fronts_and_winners_do_not_move_with_noise_below_the_tolerance() -> None:
-    """Every run's time moved by up to 4% either way, 300 times (seeded): the runs above are either within 5% or
-    at least 1.9 times apart, so no comparison crosses the 20% tolerance (1.05 x 1.04 / 0.96 < 1.2) and neither
-    the front nor the winners with their ties move. The plain front (no tolerance) changes with the noise."""
+    """Every run's time moved by up to 3% either way, 300 times (seeded): the runs above are either within 5% or
+    at least 1.9 times apart, so no comparison crosses the 20% tolerance, even leaning by the 5% noise
+    (1.05 x 1.03 / 0.97 x 1.05 / 0.95 < 1.2 for same-error pairs), and neither the front nor the winners with
+    their ties move. The plain front (no tolerance) changes with the noise."""
     base = [_run(*r) for r in RUNS]
     front = [(r.solver, r.value) for r in pareto(base)]
     winners = [{row["winner"], *row["tied"]} for row in equal_cost(base)]
     rng = random.Random(30)
     plain_fronts = set()
     for _ in range(300):
-        noisy = [_run(s, v, us * rng.uniform(0.96, 1.04), rms) for s, v, us, rms in RUNS]
+        noisy = [_run(s, v, us * rng.uniform(0.97, 1.03), rms) for s, v, us, rms in RUNS]
         assert sorted((r.solver, r.value) for r in pareto(noisy)) == sorted(front)
         assert [{row["winner"], *row["tied"]} for row in equal_cost(noisy)] == winners
         plain = []
