@@ -8,9 +8,10 @@ A solver passes a case when, at the case's end, it
   neighbour or below the floor (the ``reach`` monitor stayed <= 1);
 - is **settled**: the RMS of the boxes' actual motion over the final window (``rms_motion``) is below
   ``settle``;
-- **never launched**: no box that had touched something moved upward faster than ``launch``, measured from
-  positions after every step (the ``launch`` monitor), whatever moved it: an impulse, a bias or a position
-  correction that never touched a velocity.
+- **never launched**: no box that had touched something (a contact overlapping, at zero depth or a hair
+  apart: ``stackx.models.touch``) moved upward faster than ``launch``, measured from positions after every
+  step (the ``launch`` monitor), whatever moved it: an impulse, a bias or a position correction that never
+  touched a velocity.
 
 Planar scenes are judged by the same three, with the checks that can fail on them: a check is made only when
 its measure is there (the model measures it on this scene) and the model does not leave it out

@@ -61,7 +61,11 @@ def _reference(records: list[Record]) -> Record | None:
 def speed_error_png(title: str, records: list[Record]) -> bytes | None:
     """The speed-against-error plot of one case as PNG bytes, or None when no run has both a time and an
     error."""
-    fig = speed_error_figure(title, records)
+    return _closed_png(speed_error_figure(title, records))
+
+
+def _closed_png(fig: Any) -> bytes | None:
+    """A figure's PNG bytes, the figure closed; None for no figure."""
     if fig is None:
         return None
     try:
@@ -237,13 +241,7 @@ BEYOND = 4.0  # a drift profile's axis spans this many times the limit either wa
 def drift_profile_png(title: str, shown: list[Record], start: Any, rests: list[int],
                       limits: tuple[float, float]) -> bytes | None:
     """``drift_profile_figure`` as PNG bytes; None when it has nothing to draw."""
-    fig = drift_profile_figure(title, shown, start, rests, limits)
-    if fig is None:
-        return None
-    try:
-        return _png(fig)
-    finally:
-        _pyplot().close(fig)
+    return _closed_png(drift_profile_figure(title, shown, start, rests, limits))
 
 
 def drift_profile_figure(title: str, shown: list[Record], start: Any, rests: list[int],

@@ -13,6 +13,7 @@ from stackx.bench.plan import Case
 from stackx.bench.sweep import Record
 from stackx.bench.timing import UNSTABLE
 from stackx.criteria import digits
+from stackx.models.touch import TOUCH_GAP
 from stackx.models.column.measures import MOTION_WINDOW, STILL
 
 UNSTABLE_MARK = "!"  # after a timing flagged unstable (see DEFINITIONS)
@@ -25,9 +26,12 @@ DEFINITIONS = {
              "the floor (reach <= criteria.reach, 1 by default)",
     "settled": f"the RMS of the boxes' actual motion (y_now - y_prev)/dt over the last {MOTION_WINDOW} steps is "
                "below criteria.settle (stored velocities that move nothing do not count)",
-    "never_launched": "no box moved upward faster than criteria.launch after it first touched something, measured "
-                      "from positions after every step, (y_now - y_prev)/dt, the same way for every solver: a "
-                      "position correction that throws a box up counts although it never touches a velocity",
+    "never_launched": "no box moved upward faster than criteria.launch after it first touched something (a "
+                      f"contact overlapping, at zero depth, or at most {TOUCH_GAP:g} m apart: a solver that leaves "
+                      "its contacts exactly touching, or an engine that rests boxes on a skin, is judged too), "
+                      "measured from positions after every step, (y_now - y_prev)/dt, the same way for every "
+                      "solver: a position correction that throws a box up counts although it never touches a "
+                      "velocity",
     "crushed": "a box passed half-way into its neighbour at some step (reach above criteria.reach): the column's "
                "order no longer says which box rests on which, so the run's depths, heights and errors are left "
                "out of the tables, the speed-against-error plot, Pareto fronts and equal-cost winners, its line "

@@ -88,6 +88,8 @@ def test_the_report_draws_a_planar_case(tmp_path: Path, capsys: pytest.CaptureFi
         keep(page, "planar-report-case.png", capsys)
     plot = next(i for i in images if i[0].startswith("top box height"))
     assert "drift and turn" in plot[0] and plot[1:] == [True, 1150, 640]
-    assert [i[1:] for i in images if i[0] in captions] == [[True, 256, 256]] * 2
+    states = [i[1:] for i in images if i[0] in captions]
+    assert len(states) == 2 and states[0] == states[1] and states[0][0]  # one view, at one scale, both loaded
+    assert states[0][2] == 480 and 96 <= states[0][1] < 480  # shaped like the pile: three boxes stand tall
     assert captions[0] == "start" and captions[1].startswith("planar-pgs (iterations ")
     assert not problems, problems

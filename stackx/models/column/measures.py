@@ -22,7 +22,8 @@ SCALARS = {
     "max_depth": "largest contact penetration in the final state (m)",
     "peak_depth": "largest contact depth after any step of the run (m)",
     "reach": "largest depth after any step as a share of the thinner box's half-height (>1: passed half-way)",
-    "launch": "fastest upward velocity of a box after it first touched something (m/s)",
+    "launch": "fastest upward velocity of a box after it first touched something (overlapping, at zero depth "
+              "or at most 2 cm apart) (m/s)",
     "rms_motion": f"RMS of the boxes' actual motion (y_now - y_prev)/dt over the last {MOTION_WINDOW} steps (m/s)",
 }
 VECTORS = {

@@ -31,7 +31,8 @@ SCALARS = {
     "peak_depth": "largest contact depth after any step of the run (m)",
     "reach": "largest depth after any step as a share of the thinner body's smaller half-size (>1: passed "
              "half-way)",
-    "launch": "fastest upward velocity of a movable box after it first touched something, from positions (m/s)",
+    "launch": "fastest upward velocity of a movable box after it first touched something (overlapping, at zero "
+              "depth or at most 2 cm apart), from positions (m/s)",
     "rms_motion": f"RMS over movable boxes and the last {MOTION_WINDOW} steps of each box's actual motion, "
                   "sqrt(dx^2 + dy^2 + (r da)^2)/dt with r its half-diagonal (m/s)",
 }
