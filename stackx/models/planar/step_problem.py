@@ -47,7 +47,7 @@ import numpy as np
 
 from stackx.kernel import compiled, enabled, kernel
 from stackx.models.planar.monitor import contact_room
-from stackx.models.planar.problem import ContactProblem
+from stackx.models.planar.problem import ContactProblem, residual, velocities_after
 from stackx.models.planar.reference import ReferenceFailure, Solution, solve
 from stackx.models.planar.state import PlanarState
 from stackx.solvers.planar.contacts import (A, B, DEPTH, MU, NX, NY, PN, PT, RAX, RAY, RBX, RBY, TARGET,
@@ -144,9 +144,25 @@ class ReferenceStep:
                 self.missed[b] += 1
             raise
         self.missed[b], self.landed[b] = 0, found.attempt
+        self.keep(b, count, found)
+        return found
+
+    def closest(self, b: int, failure: ReferenceFailure) -> Solution:
+        """Row ``b``'s last solve, which raised ``failure``, answered by the closest impulses it found (zero
+        impulses when it found none), remembered as a solved step's are: for a solver that must go on."""
+        problem = self.problem
+        assert problem is not None
+        count = problem.points
+        pn = np.zeros(count) if failure.pn is None else failure.pn
+        pt = np.zeros(count) if failure.pt is None else failure.pt
+        found = Solution(pn, pt, velocities_after(problem, pn, pt), residual(problem, pn, pt), 0, 0, 0)
+        self.keep(b, count, found)
+        return found
+
+    def keep(self, b: int, count: int, found: Solution) -> None:
+        """Remember the impulses of ``found`` by feature, for row ``b``'s next solve."""
         self.table[:count, PN], self.table[:count, PT] = found.pn, found.pt
         if count > self.keys[b].shape[0]:
             self.keys[b] = np.zeros((count, 3), np.int64)
             self.carried[b] = np.zeros((count, 2))
         self.held[b] = remember(self.ids, self.table, count, self.keys[b], self.carried[b])
-        return found
