@@ -87,3 +87,27 @@ def test_a_step_the_reference_cannot_solve_keeps_the_closest_answer_and_is_count
     assert (measures["unsolved_steps"], measures["first_unsolved"]) == (2, 2)
     fresh = pyramid(2)
     assert state_measures(fresh)["unsolved_steps"] == 0 and state_measures(fresh)["first_unsolved"] == -1
+
+
+def test_the_run_table_flags_a_run_with_unsolved_steps() -> None:
+    from pathlib import Path
+    from types import SimpleNamespace
+
+    from rich.console import Console
+
+    from stackx.session import summary
+
+    def run(name: str, missed: int) -> SimpleNamespace:
+        spec = SimpleNamespace(solver_cls=SimpleNamespace(plugin_name="planar-exact"),
+                               scene=SimpleNamespace(final_size=lambda: 20), steps=360)
+        return SimpleNamespace(name=name, spec=spec, compiled=True, us_per_step=1.0,
+                               measures={"max_depth": 0.0, "peak_depth": 0.0, "rms_motion": 0.0,
+                                         "unsolved_steps": missed})
+
+    console = Console(width=120, record=True)
+    result = SimpleNamespace(spec=SimpleNamespace(name="dominoes"), runs=[run("held", 0), run("missed", 2)])
+    console.print(summary([result], Path("out")))
+    lines = console.export_text().splitlines()
+    assert any("dominoes/missed" in line and "360 (2 unsolved)" in line for line in lines)
+    assert any("dominoes/held" in line and "360 " in line and "unsolved" not in line for line in lines)
+    assert any("K unsolved" in line for line in lines)
