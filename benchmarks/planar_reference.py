@@ -30,7 +30,8 @@ from stackx.bench.plan import CASE, load_case
 from stackx.config import load
 from stackx.criteria import Criteria
 from stackx.kernel import compiled
-from stackx.models.planar import conditions, error, reference, step_problem
+from stackx.models.planar import error as planar_log
+from stackx.models.planar import reference, step_problem
 from stackx.models.planar.error import StepLog
 from stackx.runner import run_experiment
 
@@ -72,7 +73,7 @@ def measure(path: str, steps: int, solver: str, knob: int | None) -> dict[str, f
 
     logged: list[float] = []
     own: list[float] = []
-    plain_log, plain_approach = error.log_step, error.approach
+    plain_log, plain_approach = planar_log.log_step, planar_log.approach
 
     def timed_log(*args: object) -> None:
         t0 = time.perf_counter()
@@ -89,7 +90,7 @@ def measure(path: str, steps: int, solver: str, knob: int | None) -> dict[str, f
             own.append(time.perf_counter() - t0)
 
     step_problem.ReferenceStep._solve = timed  # type: ignore[method-assign]
-    error.log_step, error.approach = timed_log, timed_approach  # type: ignore[assignment]
+    planar_log.log_step, planar_log.approach = timed_log, timed_approach  # type: ignore[assignment]
     try:
         log = StepLog(Criteria())
         t0 = time.perf_counter()
@@ -98,7 +99,7 @@ def measure(path: str, steps: int, solver: str, knob: int | None) -> dict[str, f
         total = time.perf_counter() - t0
     finally:
         step_problem.ReferenceStep._solve = plain  # type: ignore[method-assign]
-        error.log_step, error.approach = plain_log, plain_approach  # type: ignore[assignment]
+        planar_log.log_step, planar_log.approach = plain_log, plain_approach  # type: ignore[assignment]
     (row,) = log.rows.values()
     timed_solves = solves[1:] or solves  # the first includes loading compiled code
     error = row.error()
