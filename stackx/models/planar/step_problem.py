@@ -18,7 +18,9 @@ step (``Solution.attempt``), and its next solve begins with that try, the earlie
 (``python3 -m benchmarks.planar_reference --steps 150 --run configs/planar/pyramid-10.yaml planar-xpbd 16``,
 the ``total s`` column). The count of unsolved steps moved (27 then, 33 after; 1 since stalls are probed, see
 ``reference``): the impulses that hold a pile are not unique, and which answer a try lands on is the next
-step's start.
+step's start. A solve begun elsewhere that misses is made again in the default order before it counts as
+missed: the tries leave each other different starts (the stall is probed once), and on step 345 of a
+leaning row of dominoes the order begun at the fifth try missed what the default order lands.
 
 **What a hopeless run costs.** A pile the reference cannot follow sets steps that every try fails, each
 costing all the tries (a 20-row pyramid under ``planar-xpbd`` at 16 substeps: 26 of its first 40 steps, up to
