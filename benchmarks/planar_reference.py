@@ -11,7 +11,8 @@ and its ``bench.set``; KNOB ``-``: the config's value of the knob, else the solv
 run: the median and the largest time per reference solve (failed ones included; ``planar-exact`` runs its
 own solve too) and their sum (what the run's reference solves add to a bench), Newton rounds and sweeps per
 solved step, and the steps the reference could not solve of those the step log watched, with the run's RMS
-error; per pyramid, the ratio of the median solve on the sagging path to that on the held path, both measured
+error; the step log's whole cost per step (``log ms``: the reference solve, the monitors and the check of
+the solver's own answer) and, of it, that check alone (``own us``: ``stackx.models.planar.conditions``); per pyramid, the ratio of the median solve on the sagging path to that on the held path, both measured
 in this one run. ``--proximal D`` solves with another proximal weight
 (``stackx.models.planar.reference.PROXIMAL``), to see what it trades.
 """
@@ -29,6 +30,7 @@ from stackx.bench.plan import CASE, load_case
 from stackx.config import load
 from stackx.criteria import Criteria
 from stackx.kernel import compiled
+from stackx.models.planar import error as planar_log
 from stackx.models.planar import reference, step_problem
 from stackx.models.planar.error import StepLog
 from stackx.runner import run_experiment
@@ -69,7 +71,26 @@ def measure(path: str, steps: int, solver: str, knob: int | None) -> dict[str, f
         work.append((found.rounds, found.sweeps))
         return found
 
+    logged: list[float] = []
+    own: list[float] = []
+    plain_log, plain_approach = planar_log.log_step, planar_log.approach
+
+    def timed_log(*args: object) -> None:
+        t0 = time.perf_counter()
+        try:
+            plain_log(*args)  # type: ignore[arg-type]
+        finally:
+            logged.append(time.perf_counter() - t0)
+
+    def timed_approach(*args: object) -> float:
+        t0 = time.perf_counter()
+        try:
+            return plain_approach(*args)  # type: ignore[arg-type]
+        finally:
+            own.append(time.perf_counter() - t0)
+
     step_problem.ReferenceStep._solve = timed  # type: ignore[method-assign]
+    planar_log.log_step, planar_log.approach = timed_log, timed_approach  # type: ignore[assignment]
     try:
         log = StepLog(Criteria())
         t0 = time.perf_counter()
@@ -78,6 +99,7 @@ def measure(path: str, steps: int, solver: str, knob: int | None) -> dict[str, f
         total = time.perf_counter() - t0
     finally:
         step_problem.ReferenceStep._solve = plain  # type: ignore[method-assign]
+        planar_log.log_step, planar_log.approach = plain_log, plain_approach  # type: ignore[assignment]
     (row,) = log.rows.values()
     timed_solves = solves[1:] or solves  # the first includes loading compiled code
     error = row.error()
@@ -86,13 +108,14 @@ def measure(path: str, steps: int, solver: str, knob: int | None) -> dict[str, f
             "rounds": statistics.mean(r for r, _ in work) if work else 0.0,
             "sweeps": statistics.mean(s for _, s in work) if work else 0.0,
             "unsolved": error["unsolved"], "logged": error["steps"] + error["unsolved"], "rms": error["rms"],
-            "solves": len(solves), "run_s": total}
+            "solves": len(solves), "run_s": total,
+            "log_ms": 1e3 * statistics.mean(logged[1:] or logged), "own_us": 1e6 * statistics.mean(own[1:] or own)}
 
 
 def line(name: str, m: dict[str, float]) -> str:
     rms = "-" if m["rms"] is None else f"{m['rms']:.4g}"
     return (f"{name:<52}{m['median_ms']:>10.1f}{m['max_ms']:>10.1f}{m['total_s']:>9.1f}{m['rounds']:>8.1f}"
-            f"{m['sweeps']:>8.0f}{m['unsolved']:>6d}/{m['logged']:<5d}{rms:>10}")
+            f"{m['sweeps']:>8.0f}{m['unsolved']:>6d}/{m['logged']:<5d}{rms:>10}{m['log_ms']:>9.1f}{m['own_us']:>8.0f}")
 
 
 def main() -> None:
@@ -106,7 +129,7 @@ def main() -> None:
     args = parser.parse_args()
     reference.PROXIMAL = args.proximal
     print(f"{'run':<52}{'ms/solve':>10}{'max ms':>10}{'total s':>9}{'rounds':>8}{'sweeps':>8}{'unsolved':>12}"
-          f"{'rms m/s':>10}")
+          f"{'rms m/s':>10}{'log ms':>9}{'own us':>8}")
     if args.run:
         for path, solver, knob in args.run:
             m = measure(path, args.steps, solver, None if knob == "-" else int(knob))

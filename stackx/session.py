@@ -120,8 +120,12 @@ def summary(results: list[ExperimentResult], out: Path, wide: bool = False) -> T
     """One row per run. The default fits 80 columns (3 significant figures, names folded, numbers never cut);
     ``wide`` adds the launch and reach monitors and full precision. µs/step says how the run was stepped:
     ``jit`` compiled by numba (the compile not counted), ``py`` plain Python."""
+    caption = "µs/step: jit = compiled (compile not counted), py = plain Python"
+    if any(r.measures.get("unsolved_steps") for result in results for r in result.runs):
+        caption += ("\nsteps N (K unsolved): K steps missed the solver's own tolerance and kept its closest answer "
+                    "(measures unsolved_steps, first_unsolved, worst_unsolved)")
     table = Table(title=f"stackx run -> {out}", box=None if not wide else box.HEAVY_HEAD, pad_edge=False,
-                  caption="µs/step: jit = compiled (compile not counted), py = plain Python" if results else None)
+                  caption=caption if results else None)
     table.add_column("run", overflow="fold")
     table.add_column("solver", overflow="fold")
     for head in ("boxes", "steps", *(h for _, h, _ in MEASURED), *(("launch m/s", "reach") if wide else ()),
@@ -145,7 +149,7 @@ def summary(results: list[ExperimentResult], out: Path, wide: bool = False) -> T
         for r in result.runs:
             how = "jit" if r.compiled else "py"
             table.add_row(f"{result.spec.name}/{r.name}", r.spec.solver_cls.plugin_name, str(r.spec.scene.final_size()),
-                          str(r.spec.steps), *(_number(r.measures, k, form) for k in names),
+                          _steps(r.spec.steps, r.measures), *(_number(r.measures, k, form) for k in names),
                           f"{r.us_per_step:{form}} {how}", *([_verdict_cell(verdicts[id(r)])] if judged else []))
     return table
 
@@ -167,6 +171,12 @@ def verdict(run: Any, bench: Any) -> tuple[bool, str] | None:
 
 def _verdict_cell(found: tuple[bool, str] | None) -> str:
     return "-" if found is None else "[green]pass[/]" if found[0] else "[red]FAIL[/]"
+
+
+def _steps(steps: int, measures: dict[str, Any]) -> str:
+    """The run's step count, flagged with how many of its steps the solver left unsolved, if any."""
+    missed = measures.get("unsolved_steps")
+    return f"{steps} ({missed} unsolved)" if missed else str(steps)
 
 
 def _number(measures: dict[str, Any], name: str, form: str) -> str:

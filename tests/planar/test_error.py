@@ -168,3 +168,20 @@ def test_small_steps_come_closer_to_the_reference_without_impacts_and_not_on_one
     few, many = knob_errors(tmp_path, LANDING, "planar-xpbd", "substeps", (4, 32))
     assert many["rms"] > 1.2 * few["rms"]
     assert (few["unsolved"], many["unsolved"]) == (0, 0)
+
+
+def test_beside_the_error_each_step_logs_how_fast_the_solver_lets_a_point_sink() -> None:
+    # a box resting flat on the ground (two touching points, target 0): a solver that only applied gravity lets
+    # both points sink at g dt; one that held it, not at all; the step log keeps the worst and the RMS over steps
+    before = boxes([0.0], [0.5], [0.0], [(0.5, 0.5)], [1.0], [0.5])
+    g, dt, spec = np.array([-9.8]), np.array([DT]), np.array([0.02])  # touching points are within the margin
+    log = BatchLog(1, 1)
+    fell = before.copy()
+    fell.vy[0, 0] = -9.8 * DT
+    log_step(log, 0, before, fell, g, dt, spec, Criteria())
+    log_step(log, 1, before, before.copy(), g, dt, spec, Criteria())
+    log.steps = 2
+    got = RowLog(log, 0).error()
+    assert got["approach_max"] == pytest.approx(9.8 * DT, rel=1e-12)
+    assert got["approach_rms"] == pytest.approx(9.8 * DT / math.sqrt(2), rel=1e-12)
+    assert BatchLog(1, 1) and RowLog(BatchLog(1, 1), 0).error()["approach_max"] is None  # no step logged

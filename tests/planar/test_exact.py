@@ -8,7 +8,6 @@ import math
 import numpy as np
 import pytest
 
-from stackx.errors import RunError
 from stackx.kernel import compiled
 from stackx.models.planar import step_problem
 from stackx.models.planar.reference import ReferenceFailure
@@ -60,14 +59,55 @@ def test_plain_and_compiled_steps_agree_to_the_bit() -> None:
         assert np.array_equal(getattr(out[0], name), getattr(out[1], name)), name
 
 
-def test_a_step_the_reference_cannot_solve_stops_the_run_naming_step_and_row(monkeypatch) -> None:
-    def fail(*args: object, **kwargs: object) -> None:
-        raise ReferenceFailure("best residual 3e-07 m/s")
+def test_a_step_the_reference_cannot_solve_keeps_the_closest_answer_and_is_counted(monkeypatch) -> None:
+    from stackx.models.planar.measures import state_measures
+    from stackx.models.planar.problem import residual, velocities_after
+
+    seen = []
+
+    def fail(problem, pn, pt, **kwargs):  # the warm start stands for the closest answer found
+        seen.append((problem, pn.copy(), pt.copy()))
+        raise ReferenceFailure("best residual 3e-07 m/s", 3e-7, pn.copy(), pt.copy())
 
     state = pyramid(2)
     state = state.concat([state, state])
     solver = _exact(2)
     solver.advance(state, 2)
+    held = state.copy()
     monkeypatch.setattr(step_problem, "solve", fail)
-    with pytest.raises(RunError, match=r"planar-exact: step 3, batch row 0: best residual 3e-07 m/s"):
-        solver.advance(state, 1)
+    solver.advance(state, 2)  # the run goes on
+    assert state.unsolved.tolist() == [2, 2] and state.first_unsolved.tolist() == [2, 2]
+    problem, pn, pt = seen[-2]  # row 0's last step: its velocities are those of the kept impulses
+    v = velocities_after(problem, pn, pt)
+    assert np.array_equal(np.stack([state.vx[0], state.vy[0], state.w[0]], axis=1), v)
+    assert state.worst_unsolved[0] == max(residual(p, a, b) for p, a, b in seen[0::2])
+    assert pn.sum() > 0.0  # the remembered impulses of the resting pile were carried
+    assert np.abs(state.y - held.y).max() < 1e-6  # a resting pile's kept answer still holds it
+    measures = state_measures(state.row(1))
+    assert (measures["unsolved_steps"], measures["first_unsolved"]) == (2, 2)
+    fresh = pyramid(2)
+    assert state_measures(fresh)["unsolved_steps"] == 0 and state_measures(fresh)["first_unsolved"] == -1
+
+
+def test_the_run_table_flags_a_run_with_unsolved_steps() -> None:
+    from pathlib import Path
+    from types import SimpleNamespace
+
+    from rich.console import Console
+
+    from stackx.session import summary
+
+    def run(name: str, missed: int) -> SimpleNamespace:
+        spec = SimpleNamespace(solver_cls=SimpleNamespace(plugin_name="planar-exact"),
+                               scene=SimpleNamespace(final_size=lambda: 20), steps=360)
+        return SimpleNamespace(name=name, spec=spec, compiled=True, us_per_step=1.0,
+                               measures={"max_depth": 0.0, "peak_depth": 0.0, "rms_motion": 0.0,
+                                         "unsolved_steps": missed})
+
+    console = Console(width=120, record=True)
+    result = SimpleNamespace(spec=SimpleNamespace(name="dominoes"), runs=[run("held", 0), run("missed", 2)])
+    console.print(summary([result], Path("out")))
+    lines = console.export_text().splitlines()
+    assert any("dominoes/missed" in line and "360 (2 unsolved)" in line for line in lines)
+    assert any("dominoes/held" in line and "360 " in line and "unsolved" not in line for line in lines)
+    assert any("K unsolved" in line for line in lines)

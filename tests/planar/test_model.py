@@ -39,7 +39,8 @@ def test_the_planar_scene_builds_the_planar_model_whose_reference_is_planar_exac
     assert registry.scenes.get("planar").model == "planar"
     assert model.reference == "planar-exact" and model.State is PlanarState
     assert {"x", "y", "angle", "vx", "vy", "w"} == set(model.VECTORS)
-    assert {"max_depth", "peak_depth", "reach", "launch", "rms_motion"} == set(model.SCALARS)
+    assert {"max_depth", "peak_depth", "reach", "launch", "rms_motion", "unsolved_steps", "first_unsolved",
+            "worst_unsolved"} == set(model.SCALARS)
 
 
 def test_offender_names_the_first_non_finite_body() -> None:

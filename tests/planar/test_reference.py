@@ -394,3 +394,15 @@ def test_a_row_begins_each_solve_with_the_try_that_landed_its_last_step(monkeypa
     # a failed step leaves the memory as it was; the other row's is its own
     assert begun == [1, 4, 4, 2]
     assert reference.landed.tolist() == [1, 3]
+
+
+def test_a_solve_begun_at_another_try_that_misses_is_made_again_in_the_default_order() -> None:
+    # step 345 of a row of 20 leaning dominoes under planar-exact, with the impulses it started from: begun at the
+    # fifth try (the one that landed the step before), every try missed, at 1.3e-10 m/s; in the default order
+    # the fourth lands
+    (p, pn, pt), = _recorded("domino_step")
+    sol = solve(p, pn, pt, begin=5)
+    assert residual(p, sol.pn, sol.pt) < 1e-10
+    assert sol.attempt == solve(p, pn, pt).attempt == 4
+    with pytest.raises(ReferenceFailure):  # a quick solve has no second order
+        solve(p, pn, pt, begin=5, quick=True)

@@ -13,6 +13,13 @@ corners), in m/s. The error is the RMS over all steps and movable boxes, with th
 step beside it. The reference starts each step from the impulses it found for the same points the step
 before, so a run's steps cost it few Newton rounds.
 
+**Its own answer's conditions.** Beside the error, which needs the reference, each step also gets what the
+solver's answer breaks on its own (``stackx.models.planar.conditions``): from the velocities it stored, the
+fastest approach beyond any point's target (a point sinking faster than the step allows), on the same
+step problem. Its largest value over the run (``approach_max``) and the RMS of the per-step values
+(``approach_rms``), m/s, are in the run's error beside ``rms`` and ``max``; 0 for an exact answer. It
+costs one pass over the step's points.
+
 A step the reference cannot solve (it says so rather than return a wrong answer) is not measured; how many
 there were is reported as ``unsolved`` beside the error, so a gap in the measurement is never silent.
 
@@ -35,6 +42,7 @@ import numpy as np
 
 from stackx.criteria import Criteria
 from stackx.models import steplog
+from stackx.models.planar.conditions import approach
 from stackx.models.planar.measures import half_diagonal, max_depth
 from stackx.models.planar.reference import ReferenceFailure
 from stackx.models.planar.state import PlanarState
@@ -54,6 +62,8 @@ class BatchLog:
         self.measured = np.zeros(rows, dtype=np.int64)   # steps compared
         self.unsolved = np.zeros(rows, dtype=np.int64)   # steps the reference could not solve
         self.worst = np.full(rows, -1.0)
+        self.approach_max = np.zeros(rows)  # fastest approach beyond a target, over the steps (m/s)
+        self.approach_sumsq = np.zeros(rows)  # sum over steps of each step's fastest approach squared
         self.worst_step = np.full(rows, -1, dtype=np.int64)
         self.crushed_at = np.full(rows, -1, dtype=np.int64)
         self.last_overlap = np.full(rows, -1, dtype=np.int64)  # last step after which a contact overlapped too much
@@ -66,7 +76,11 @@ class RowLog(steplog.RowLog):
     """What one run's steps came to: the column's figures, and how many steps the reference left unsolved."""
 
     def error(self) -> dict[str, Any]:
-        return {**super().error(), "unsolved": int(self.log.unsolved[self.b])}
+        log, b = self.log, self.b
+        steps = log.measured[b] + log.unsolved[b]
+        return {**super().error(), "unsolved": int(log.unsolved[b]),
+                "approach_max": float(log.approach_max[b]) if steps else None,
+                "approach_rms": float(np.sqrt(log.approach_sumsq[b] / steps)) if steps else None}
 
 
 def box_speeds(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, radius: np.ndarray) -> np.ndarray:
@@ -98,6 +112,12 @@ def log_step(log: BatchLog, k: int, before: PlanarState, after: PlanarState, g: 
         except ReferenceFailure:
             log.unsolved[b] += 1
             continue
+        finally:
+            if log.reference.problem is not None:
+                own = np.stack([after.vx[b], after.vy[b], after.w[b]], axis=1)
+                fastest = approach(log.reference.problem, own)
+                log.approach_max[b] = max(log.approach_max[b], fastest)
+                log.approach_sumsq[b] += fastest * fastest
         v = found.velocity
         diff = box_speeds(after.vx[b] - v[:, 0], after.vy[b] - v[:, 1], after.w[b] - v[:, 2], radius[b])[moving]
         log.sumsq[b] += float(np.sum(diff * diff))

@@ -33,6 +33,10 @@ SCALARS = {
              "half-way)",
     "launch": "fastest upward velocity of a movable box after it first touched something (overlapping, at zero "
               "depth or at most 2 cm apart), from positions (m/s)",
+    "unsolved_steps": "steps whose velocity problem the solver solves to a tolerance (planar-exact) and missed it "
+                      "on: each kept the best answer found; 0 for the other solvers",
+    "first_unsolved": "the first such step, counted from 0 (-1: none)",
+    "worst_unsolved": "the largest residual of an answer kept on such a step (m/s; 0: none)",
     "rms_motion": f"RMS over movable boxes and the last {MOTION_WINDOW} steps of each box's actual motion, "
                   "sqrt(dx^2 + dy^2 + (r da)^2)/dt with r its half-diagonal (m/s)",
 }
@@ -103,7 +107,9 @@ def state_measures(state: PlanarState) -> dict[str, float | list[float]]:
     """The measures one state (a batch of one) gives on its own: all but ``rms_motion``."""
     out: dict[str, float | list[float]] = {k: getattr(state, k)[0].tolist() for k in VECTORS}
     out.update({"max_depth": max_depth(state), "peak_depth": float(max(state.peak_depth[0], 0.0)),
-                "reach": float(max(state.reach[0], 0.0)), "launch": float(max(state.launch[0], 0.0))})
+                "reach": float(max(state.reach[0], 0.0)), "launch": float(max(state.launch[0], 0.0)),
+                "unsolved_steps": int(state.unsolved[0]), "first_unsolved": int(state.first_unsolved[0]),
+                "worst_unsolved": float(state.worst_unsolved[0])})
     return out
 
 

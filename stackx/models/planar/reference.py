@@ -148,11 +148,15 @@ PROBES = 32  # most forced slides a solve probes (each: full Newton rounds), tho
 
 
 class ReferenceFailure(RuntimeError):
-    """The reference solve did not reach its tolerance; ``best``: the least residual it reached (m/s)."""
+    """The reference solve did not reach its tolerance; ``best``: the least residual it reached (m/s), and
+    ``pn``, ``pt`` the impulses of the closest answer it found (None when it found none), for a caller that
+    must go on (``planar-exact`` keeps them and flags the step)."""
 
-    def __init__(self, message: str, best: float = float("inf")) -> None:
+    def __init__(self, message: str, best: float = float("inf"), pn: np.ndarray | None = None,
+                 pt: np.ndarray | None = None) -> None:
         super().__init__(message)
         self.best = best
+        self.pn, self.pt = pn, pt
 
 
 @dataclass
@@ -495,9 +499,18 @@ def solve(problem: ContactProblem, pn: np.ndarray | None = None, pt: np.ndarray 
             found.attempt = number
             return found
         best = min(best, reached)
+    if begin > 1 and not quick:
+        # the tries are the same in any order, but not what they leave each other (the stall probed once, the
+        # modes read): a row that begins with the try that landed its last step (the fifth, on a leaning row of
+        # dominoes) can miss a step the default order lands, so the default order has the last word
+        return solve(problem, pn, pt, tolerance, sweeps, rounds)
+    kept = warm if closest[1] is None else closest[1]
+    kept_pn, kept_pt = np.maximum(kept[:m], 0.0) * kn, kept[m:] * kt
+    kept_pt = np.clip(kept_pt, -problem.friction * kept_pn, problem.friction * kept_pn)
     raise ReferenceFailure(f"the contact problem ({m} points, {n} bodies) was not solved to {tolerance:g} m/s "
                            f"in {len(numbered)} tries ({rounds} damped or {2 * rounds} full Newton rounds each"
-                           f"{', Lemke pivoting' if lemke else ''}) and {swept} sweeps: best residual {best:.3g} m/s", best)
+                           f"{', Lemke pivoting' if lemke else ''}) and {swept} sweeps: best residual {best:.3g} m/s",
+                           best, kept_pn, kept_pt)
 
 
 class ModeSystem:

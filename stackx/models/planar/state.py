@@ -18,7 +18,9 @@ class PlanarState:
     """The bodies' arrays ``(batch, bodies)``, and the monitors solvers update after every step
     (``stackx.models.planar.monitor.observe``): ``last_y`` and ``touched`` ``(batch, bodies)``,
     ``peak_depth``, ``reach`` and ``launch`` ``(batch,)``. A state built without monitors starts them from its
-    own positions."""
+    own positions. ``unsolved``, ``first_unsolved`` and ``worst_unsolved`` ``(batch,)``: the steps whose
+    velocity problem a solver that solves it to a tolerance (``planar-exact``) missed, the first of them
+    (-1: none) and the largest residual kept (m/s); 0 for the others."""
 
     x: np.ndarray
     y: np.ndarray
@@ -36,14 +38,22 @@ class PlanarState:
     reach: np.ndarray = field(default=None)  # type: ignore[assignment]
     touched: np.ndarray = field(default=None)  # type: ignore[assignment]
     launch: np.ndarray = field(default=None)  # type: ignore[assignment]
+    unsolved: np.ndarray = field(default=None)  # type: ignore[assignment]
+    first_unsolved: np.ndarray = field(default=None)  # type: ignore[assignment]
+    worst_unsolved: np.ndarray = field(default=None)  # type: ignore[assignment]
 
     BODY = ("x", "y", "angle", "vx", "vy", "w", "inv_mass", "inv_inertia", "hx", "hy", "friction")
     MONITORS = ("last_y", "peak_depth", "reach", "touched", "launch")
-    FIELDS = (*BODY, *MONITORS)
+    MISSES = ("unsolved", "first_unsolved", "worst_unsolved")
+    FIELDS = (*BODY, *MONITORS, *MISSES)
 
     def __post_init__(self) -> None:
         for name in self.BODY:
             setattr(self, name, np.ascontiguousarray(getattr(self, name), dtype=np.float64))
+        if self.unsolved is None:
+            self.unsolved = np.zeros(self.batch, dtype=np.int64)
+            self.first_unsolved = np.full(self.batch, -1, dtype=np.int64)
+            self.worst_unsolved = np.zeros(self.batch)
         if all(getattr(self, k) is not None for k in self.MONITORS):
             return  # a copy: nothing to derive
         from stackx.models.planar.monitor import observe

@@ -18,7 +18,9 @@ step (``Solution.attempt``), and its next solve begins with that try, the earlie
 (``python3 -m benchmarks.planar_reference --steps 150 --run configs/planar/pyramid-10.yaml planar-xpbd 16``,
 the ``total s`` column). The count of unsolved steps moved (27 then, 33 after; 1 since stalls are probed, see
 ``reference``): the impulses that hold a pile are not unique, and which answer a try lands on is the next
-step's start.
+step's start. A solve begun elsewhere that misses is made again in the default order before it counts as
+missed: the tries leave each other different starts (the stall is probed once), and on step 345 of a
+leaning row of dominoes the order begun at the fifth try missed what the default order lands.
 
 **What a hopeless run costs.** A pile the reference cannot follow sets steps that every try fails, each
 costing all the tries (a 20-row pyramid under ``planar-xpbd`` at 16 substeps: 26 of its first 40 steps, up to
@@ -47,7 +49,7 @@ import numpy as np
 
 from stackx.kernel import compiled, enabled, kernel
 from stackx.models.planar.monitor import contact_room
-from stackx.models.planar.problem import ContactProblem
+from stackx.models.planar.problem import ContactProblem, residual, velocities_after
 from stackx.models.planar.reference import ReferenceFailure, Solution, solve
 from stackx.models.planar.state import PlanarState
 from stackx.solvers.planar.contacts import (A, B, DEPTH, MU, NX, NY, PN, PT, RAX, RAY, RBX, RBY, TARGET,
@@ -144,9 +146,25 @@ class ReferenceStep:
                 self.missed[b] += 1
             raise
         self.missed[b], self.landed[b] = 0, found.attempt
+        self.keep(b, count, found)
+        return found
+
+    def closest(self, b: int, failure: ReferenceFailure) -> Solution:
+        """Row ``b``'s last solve, which raised ``failure``, answered by the closest impulses it found (zero
+        impulses when it found none), remembered as a solved step's are: for a solver that must go on."""
+        problem = self.problem
+        assert problem is not None
+        count = problem.points
+        pn = np.zeros(count) if failure.pn is None else failure.pn
+        pt = np.zeros(count) if failure.pt is None else failure.pt
+        found = Solution(pn, pt, velocities_after(problem, pn, pt), residual(problem, pn, pt), 0, 0, 0)
+        self.keep(b, count, found)
+        return found
+
+    def keep(self, b: int, count: int, found: Solution) -> None:
+        """Remember the impulses of ``found`` by feature, for row ``b``'s next solve."""
         self.table[:count, PN], self.table[:count, PT] = found.pn, found.pt
         if count > self.keys[b].shape[0]:
             self.keys[b] = np.zeros((count, 3), np.int64)
             self.carried[b] = np.zeros((count, 2))
         self.held[b] = remember(self.ids, self.table, count, self.keys[b], self.carried[b])
-        return found

@@ -6,8 +6,11 @@ One step of one world:
    for one still apart), anchors, effective masses and friction (``stackx.solvers.planar.contacts``);
 3. the velocity problem solved to a residual below 1e-10 m/s by the reference solve
    (``stackx.models.planar.reference``: Gauss-Seidel for the active set, then Newton on it), starting from
-   the impulses the same points carried in the last step; a problem it cannot solve stops the run, naming
-   the step, the row and the residual reached;
+   the impulses the same points carried in the last step. A step it does not solve to that tolerance keeps
+   the closest answer the solve found and goes on: the run is the user's, and one hard step must not end
+   it. Such steps are counted in the state (``unsolved``, with the first of them and the largest residual
+   kept), so the run's measures (``unsolved_steps``, ``first_unsolved``, ``worst_unsolved``) and its table
+   say so;
 4. positions and angles move with the velocities;
 5. the lab's position correction (slop, percent) on the points that overlap after the move.
 
@@ -22,7 +25,6 @@ from __future__ import annotations
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, field_validator
 
-from stackx.errors import RunError
 from stackx.kernel import kernel
 from stackx.models.planar.monitor import contact_room, observe
 from stackx.models.planar.reference import ReferenceFailure
@@ -90,8 +92,12 @@ class PlanarExact(PlanarSolver):
                     found = self.reference.solve(b, s.x[b], s.y[b], s.angle[b], s.vx[b], s.vy[b], s.w[b],
                                                  s.inv_mass[b], s.inv_inertia[b], s.hx[b], s.hy[b], s.friction[b],
                                                  self.gravity[b], self.dt[b], self.speculative[b])
-                except ReferenceFailure as exc:
-                    raise RunError(f"planar-exact: step {self.steps + 1}, batch row {b}: {exc}") from exc
+                except ReferenceFailure as failure:
+                    found = self.reference.closest(b, failure)
+                    s.unsolved[b] += 1
+                    if s.first_unsolved[b] < 0:
+                        s.first_unsolved[b] = self.steps
+                    s.worst_unsolved[b] = max(s.worst_unsolved[b], found.residual)
                 s.vx[b], s.vy[b], s.w[b] = found.velocity[:, 0], found.velocity[:, 1], found.velocity[:, 2]
                 ids, table = finish_step(s.x[b], s.y[b], s.angle[b], s.vx[b], s.vy[b], s.w[b], s.inv_mass[b],
                                          s.hx[b], s.hy[b], self.dt[b], self.corrects[b], self.slop[b],
