@@ -125,7 +125,7 @@ def make_space(pymunk: Any, p: PymunkParams, g: float) -> Any:
 def box_poly(pymunk: Any, body: Any, hx: float, hy: float, mu: float, category: int, allowed: int) -> Any:
     """A box shape of half-sizes ``hx, hy`` centred on ``body``, carrying sqrt(mu), in its collision
     category."""
-    shape = pymunk.Poly(body, [(-hx, -hy), (hx, -hy), (hx, hy), (-hx, hy)])
+    shape = pymunk.Poly.create_box(body, (2.0 * hx, 2.0 * hy))
     shape.friction, shape.elasticity = math.sqrt(mu), 0.0
     shape.filter = pymunk.ShapeFilter(categories=category, mask=allowed)
     return shape
