@@ -47,6 +47,7 @@ from stackx.models.planar.state import PlanarState
 from stackx.registry import solvers
 from stackx.solvers.contacts import speculative_field
 from stackx.solvers.planar.base import PlanarSolver
+from stackx.solvers.planar.reach import reach_in_step
 from stackx.solvers.planar.contacts import (A, B, MU, NX, NY, PN, PT, RAX, RAY, RBX, RBY, apply_impulse,
                                             contact_workspace, effective_mass, find_contacts, gravity,
                                             integrate_positions, prepare, relative_velocity, two_point_lcp)
@@ -268,20 +269,6 @@ def velocity_pass(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, inv_mass: np.nd
 
 
 @kernel
-def reach_in_step(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, inv_mass: np.ndarray, hx: np.ndarray,
-                  hy: np.ndarray, g: float, dt: float) -> float:
-    """How far two points may close in one step (m): twice the fastest point of any movable box (its centre's
-    speed plus ``|w|`` times its half-diagonal, plus what gravity adds in the step) times ``dt``. Contacts are
-    found this far apart when it is more than ``speculative``, so the substeps see every contact a corner
-    reaches within the step instead of finding it deep a step late."""
-    fastest = 0.0
-    for i in range(vx.shape[0]):
-        if inv_mass[i] > 0.0:
-            fastest = max(fastest, np.hypot(vx[i], vy[i]) + abs(w[i]) * np.hypot(hx[i], hy[i]))
-    return 2.0 * (fastest + abs(g) * dt) * dt
-
-
-@kernel
 def xpbd_advance(x: np.ndarray, y: np.ndarray, angle: np.ndarray, vx: np.ndarray, vy: np.ndarray, w: np.ndarray,
                  inv_mass: np.ndarray, inv_inertia: np.ndarray, hx: np.ndarray, hy: np.ndarray,
                  friction: np.ndarray, g: np.ndarray, dt: np.ndarray, substeps: np.ndarray,
@@ -333,6 +320,7 @@ class PlanarXPBD(PlanarSolver):
     positions (Macklin et al.)."""
 
     Params = PlanarXPBDParams
+    speculative_reach = True  # contacts looked for as far as the fastest box closes (stackx.solvers.planar.reach)
 
     def __init__(self, params: list[PlanarXPBDParams], gravity: np.ndarray, dt: np.ndarray) -> None:
         super().__init__(params, gravity, dt)
