@@ -44,9 +44,14 @@ class Box2D3Params(BaseModel):
     substeps: int = Field(4, gt=0, le=10_000,
                           description="substeps per step (world.step's subStepCount), each a solve and a relax pass: "
                                       "more make contacts stiffer at linear cost")
-    contact_hertz: float = Field(30.0, gt=0, allow_inf_nan=False,
-                                 description="contact stiffness as a spring frequency (Hz), at most a quarter of the "
-                                             "substep rate: higher sinks less under load")
+    contact_hertz: float | None = Field(30.0, gt=0, allow_inf_nan=False,
+                                        description="contact stiffness as a spring frequency (Hz), at most a quarter "
+                                                    "of the substep rate: higher sinks less under load; null: that "
+                                                    "quarter, so stiffness grows with the substeps")
+
+    def hertz(self, dt: float) -> float:
+        """The contact hertz given to the world: ``contact_hertz``, or a quarter of the substep rate."""
+        return self.contact_hertz if self.contact_hertz is not None else 0.25 * self.substeps / dt
     contact_damping_ratio: float = Field(10.0, ge=0, allow_inf_nan=False,
                                          description="damping of the contact spring: 10 pushes out without bouncing")
     contact_push_velocity: float = Field(3.0, gt=0, allow_inf_nan=False,
@@ -69,7 +74,7 @@ class Box2D3Column:
 
     def __init__(self, b2: Any, p: Box2D3Params, g: float, dt: float, y: np.ndarray, v: np.ndarray,
                  mass: np.ndarray, half: np.ndarray) -> None:
-        world = make_world(b2, p, g)
+        world = make_world(b2, p, g, dt)
         frictionless = b2.surface_material(friction=0.0, restitution=0.0)
         floor = world.create_static_body(position=(0.0, 0.0))
         floor.create_polygon_shape(b2.shape_def(material=frictionless),
@@ -106,11 +111,12 @@ class Box2D3Column:
         self._gather()
 
 
-def make_world(b2: Any, p: Box2D3Params, g: float) -> Any:
+def make_world(b2: Any, p: Box2D3Params, g: float, dt: float) -> Any:
     """A world with gravity ``(0, g)`` and the params' knobs."""
-    world = b2.World(gravity=(0.0, g), contact_hertz=p.contact_hertz, contact_damping_ratio=p.contact_damping_ratio,
+    hertz = p.hertz(dt)
+    world = b2.World(gravity=(0.0, g), contact_hertz=hertz, contact_damping_ratio=p.contact_damping_ratio,
                      maximum_linear_speed=p.maximum_linear_speed)
-    world.set_contact_tuning(p.contact_hertz, p.contact_damping_ratio, p.contact_push_velocity)
+    world.set_contact_tuning(hertz, p.contact_damping_ratio, p.contact_push_velocity)
     world.sleeping_enabled = p.enable_sleep
     world.continuous_enabled = p.enable_continuous
     return world
@@ -120,7 +126,7 @@ class Box2D3Planar:
     """One batch row of the planar model as Box2D v3 bodies, in state order."""
 
     def __init__(self, b2: Any, p: Box2D3Params, g: float, dt: float, boxes: Boxes) -> None:
-        world = make_world(b2, p, g)
+        world = make_world(b2, p, g, dt)
 
         def shape(mu: float, category: int, allowed: int) -> Any:
             return b2.shape_def(density=1.0, material=b2.surface_material(friction=mu, restitution=0.0),
