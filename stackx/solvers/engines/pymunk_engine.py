@@ -57,6 +57,31 @@ class PymunkParams(BaseModel):
                                                            "never sleeps (pymunk's default)")
 
 
+class BatchReader:
+    """The bodies' fields in one ``pymunk.batch`` call. pymunk lists bodies in an order of its own, ``width``
+    floats each; where the wanted ``fields`` (offsets within a body's floats) of ``bodies``, in their order,
+    lie in that list is found again whenever pymunk's order changes."""
+
+    def __init__(self, batch: Any, space: Any, fields: Any, bodies: list[Any], offsets: tuple[int, ...],
+                 width: int) -> None:
+        self.batch, self.space, self.fields, self.bodies = batch, space, fields, bodies
+        self.offsets, self.width = np.array(offsets, dtype=np.intp), width
+        self.buffer = batch.Buffer()
+        self.ids = b""
+        self.columns = np.zeros((len(offsets), 0), dtype=np.intp)
+
+    def read(self) -> tuple[np.ndarray, np.ndarray]:
+        """All the floats pymunk gave, and per wanted field the indices of ``bodies``' values in them."""
+        self.buffer.clear()
+        self.batch.get_space_bodies(self.space, self.fields, self.buffer)
+        ids = bytes(self.buffer.int_buf())
+        if ids != self.ids or self.columns.shape[1] != len(self.bodies):
+            listed = {int(k): n for n, k in enumerate(np.frombuffer(ids, dtype=np.uintp))}
+            order = np.array([listed[b.id] for b in self.bodies], dtype=np.intp)
+            self.ids, self.columns = ids, self.width * order[None, :] + self.offsets[:, None]
+        return np.frombuffer(self.buffer.float_buf(), dtype=np.float64), self.columns
+
+
 class PymunkColumn:
     """One batch row: the column's boxes as pymunk bodies."""
 
@@ -83,26 +108,16 @@ class PymunkColumn:
         self.dt = dt
         self.fields = pymunk.batch.BodyFields.BODY_ID | pymunk.batch.BodyFields.POSITION | \
             pymunk.batch.BodyFields.VELOCITY
-        self.buffer = pymunk.batch.Buffer()
-        self.ids = b""
-        self.heights = self.speeds = np.zeros(0, dtype=np.intp)
+        self.reader = BatchReader(pymunk.batch, space, self.fields, self.bodies, (1, 3), 4)
 
     def step(self) -> None:
         self.space.step(self.dt)
 
     def read(self, y: np.ndarray, v: np.ndarray) -> None:
-        """Heights and velocities of every body in one batch call. pymunk lists bodies in an order of its own
-        (x, y, vx, vy each); which entries are the column's, bottom first, is found again when it changes."""
-        self.buffer.clear()
-        self.batch.get_space_bodies(self.space, self.fields, self.buffer)
-        ids = bytes(self.buffer.int_buf())
-        if ids != self.ids:
-            listed = {int(k): n for n, k in enumerate(np.frombuffer(ids, dtype=np.uintp))}
-            order = np.array([listed[b.id] for b in self.bodies], dtype=np.intp)
-            self.ids, self.heights, self.speeds = ids, 4 * order + 1, 4 * order + 3
-        data = np.frombuffer(self.buffer.float_buf(), dtype=np.float64)
-        y[:] = data[self.heights]
-        v[:] = data[self.speeds]
+        """Heights and velocities of every body in one batch call (x, y, vx, vy each)."""
+        data, (heights, speeds) = self.reader.read()
+        y[:] = data[heights]
+        v[:] = data[speeds]
 
     def remove(self, box: int) -> None:
         body = self.bodies.pop(box)
@@ -162,26 +177,18 @@ class PymunkPlanar:
         self.space = space
         self.dt = dt
         fields = pymunk.batch.BodyFields
-        self.fields = fields.BODY_ID | fields.POSITION | fields.ANGLE | fields.VELOCITY | fields.ANGULAR_VELOCITY
-        self.buffer = pymunk.batch.Buffer()
-        self.ids = b""
-        self.columns = np.zeros((6, 0), dtype=np.intp)
+        self.reader = BatchReader(pymunk.batch, space,
+                                  fields.BODY_ID | fields.POSITION | fields.ANGLE | fields.VELOCITY
+                                  | fields.ANGULAR_VELOCITY, self.bodies, tuple(range(6)), 6)
 
     def step(self) -> None:
         self.space.step(self.dt)
 
     def read(self, x: np.ndarray, y: np.ndarray, angle: np.ndarray, vx: np.ndarray, vy: np.ndarray,
              w: np.ndarray) -> None:
-        """Every movable body's x, y, angle, vx, vy, w in one batch call (six per body, in pymunk's order)."""
-        self.buffer.clear()
-        self.batch.get_space_bodies(self.space, self.fields, self.buffer)
-        ids = bytes(self.buffer.int_buf())
-        if ids != self.ids:
-            listed = {int(k): n for n, k in enumerate(np.frombuffer(ids, dtype=np.uintp))}
-            order = np.array([listed[b.id] for b in self.bodies], dtype=np.intp)
-            self.ids, self.columns = ids, 6 * order[None, :] + np.arange(6)[:, None]
-        data = np.frombuffer(self.buffer.float_buf(), dtype=np.float64)
-        for out, column in zip((x, y, angle, vx, vy, w), self.columns):
+        """Every movable body's x, y, angle, vx, vy, w in one batch call (six per body)."""
+        data, columns = self.reader.read()
+        for out, column in zip((x, y, angle, vx, vy, w), columns):
             out[self.movable] = data[column]
 
 
