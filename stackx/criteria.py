@@ -17,7 +17,9 @@ Planar scenes are judged by the same three, with the checks that can fail on the
 its measure is there (the model measures it on this scene) and the model does not leave it out
 (``Model.unjudged``). "Holds" adds **drift**: the boxes placed where they should stay (``drift_x``, the largest
 horizontal motion, at most ``drift``; ``drift_angle``, the largest rotation, at most ``turn``) and, on a ramp,
-the box's acceleration down the slope within ``slide`` of the analytic g (sin a - mu cos a) (``slide_error``).
+the box's acceleration down the slope within ``slide`` of the analytic g (sin a - mu cos a) (``slide_error``);
+a box dropped to land on a face ends within ``turn`` of a multiple of 90 degrees (``land_tilt``), and every
+box placed to topple ends at least ``fall`` from upright (``fall_tilt``).
 The top box's rest height is judged where a rigid pile gives it one (a stack, a pyramid, heavy on light), over
 the contacts under it (``rest_contacts``; on the column every box's). A sliding box never settles, so
 "settled" is not judged on it.
@@ -68,6 +70,10 @@ class Criteria(BaseModel):
     turn: float = Field(0.05, gt=0, allow_inf_nan=False,
                         description="(planar) 'holds' allows a box placed at rest to end turned by this much (rad); "
                                     "a toppled box has turned by about 1.57")
+    fall: float = Field(0.35, gt=0, allow_inf_nan=False,
+                        description="(planar) 'holds' needs every box placed to topple (dominoes) to end tilted at "
+                                    "least this far from upright (rad): 0.35 is 20 degrees, less than a domino "
+                                    "leaning on the next leans")
     slide: float = Field(1e-3, gt=0, allow_inf_nan=False,
                          description="(planar ramp) 'holds' allows the box's acceleration down the slope to differ "
                                      "this much from g (sin a - mu cos a), or 0 where it should stick (m/s^2)")
@@ -99,19 +105,25 @@ def near(value: float, limit: float) -> tuple[str, str]:
 
 @dataclass(frozen=True)
 class Check:
-    """One measure against its upper limit: at most the limit, or with ``strict`` below it. A NaN never passes."""
+    """One measure against its limit: at most the limit, or with ``strict`` below it; with ``least`` at least
+    the limit. A NaN never passes."""
 
     measure: str
     value: float
     limit: float
     strict: bool = False
+    least: bool = False
 
     @property
     def passed(self) -> bool:
+        if self.least:
+            return self.value >= self.limit
         return self.value < self.limit if self.strict else self.value <= self.limit
 
     def describe(self) -> str:
         """``max_depth 0.53 > 0.02``: the measure, its value and how it stands to the limit."""
+        if self.least:
+            return f"{self.measure} {self.value:.3g} {'>=' if self.passed else '<'} {self.limit:.3g}"
         rel = ("<" if self.strict else "<=") if self.passed else (">=" if self.strict else ">")
         value, limit = near(self.value, self.limit)
         return f"{self.measure} {value} {rel} {limit}"
@@ -142,12 +154,13 @@ class Verdict:
 def judge(measures: Mapping[str, Any], criteria: Criteria, unjudged: Collection[str] = ()) -> dict[str, Verdict]:
     """The three verdicts of one run from its measures (the column's: ``max_depth``, ``max_gap``,
     ``top_rest_error``, ``boxes``, ``reach``, ``rms_motion``, ``launch``; planar runs may lack some and add
-    ``drift_x``, ``drift_angle``, ``slide_error``, ``rest_contacts``). A check is made when its measure is
-    there and not in ``unjudged``; a verdict without checks has nothing that could fail it and passes."""
-    def check(measure: str, limit: float, strict: bool = False) -> list[Check]:
+    ``drift_x``, ``drift_angle``, ``slide_error``, ``rest_contacts``, ``land_tilt``, ``fall_tilt``). A check
+    is made when its measure is there and not in ``unjudged``; a verdict without checks has nothing that could
+    fail it and passes."""
+    def check(measure: str, limit: float, strict: bool = False, least: bool = False) -> list[Check]:
         if measure not in measures or measure in unjudged:
             return []
-        return [Check(measure, float(measures[measure]), limit, strict)]
+        return [Check(measure, float(measures[measure]), limit, strict, least)]
 
     rest = []
     if "top_rest_error" in measures and "top_rest_error" not in unjudged:
@@ -155,7 +168,8 @@ def judge(measures: Mapping[str, Any], criteria: Criteria, unjudged: Collection[
         rest = [Check("|top_rest_error|", abs(float(measures["top_rest_error"])), criteria.rest_limit(contacts))]
     holds = (*check("max_depth", criteria.depth_limit), *check("max_gap", criteria.depth_limit), *rest,
              *check("reach", criteria.reach), *check("drift_x", criteria.drift), *check("drift_angle", criteria.turn),
-             *check("slide_error", criteria.slide))
+             *check("slide_error", criteria.slide), *check("land_tilt", criteria.turn),
+             *check("fall_tilt", criteria.fall, least=True))
     return {
         "holds": Verdict("holds", holds),
         "settled": Verdict("settled", tuple(check("rms_motion", criteria.settle, strict=True))),

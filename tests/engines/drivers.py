@@ -84,7 +84,9 @@ def _run(col: Column, step: Callable[[], None], read: Callable[[], tuple[list[fl
 def drive_pymunk(col: Column) -> Trajectory:
     import pymunk
 
-    space = pymunk.Space()  # pymunk's defaults: 10 iterations, slop 0.1, no sleeping
+    space = pymunk.Space()  # pymunk's defaults (10 iterations, no sleeping), but a slop in metres
+    space.collision_slop = 0.01
+    space.collision_bias = (1 - 0.1) ** 60  # pymunk's own default rounds this through single precision
     space.gravity = 0, col.gravity
     ground = pymunk.Body(body_type=pymunk.Body.STATIC)
     ground.position = 0, -1

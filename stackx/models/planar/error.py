@@ -6,7 +6,7 @@ and why along the solver's own path; this one carries it over to boxes that slid
 **Error against the reference.** At every step ``k`` of a solver's own run, from the state before the step
 (poses and velocities as the solver left them), the reference (``stackx.models.planar.step_problem``) sets the
 step's problem (gravity, the points within the solver's own ``speculative`` margin, 0 for a solver without
-one) and solves it to a residual below 1e-10 m/s. Per movable box, the difference between the velocities the
+one, grown as the solver grows it for a solver with ``speculative_reach``) and solves it to a residual below 1e-10 m/s. Per movable box, the difference between the velocities the
 solver stored after step ``k`` and the reference's is one speed,
 ``sqrt(dvx^2 + dvy^2 + (r dw)^2)`` with ``r`` the box's half-diagonal (rotation as the speed of its
 corners), in m/s. The error is the RMS over all steps and movable boxes, with the largest difference and its
@@ -48,6 +48,7 @@ from stackx.models.planar.reference import ReferenceFailure
 from stackx.models.planar.state import PlanarState
 from stackx.models.planar.step_problem import ReferenceStep
 from stackx.runner import OnStep
+from stackx.solvers.planar.reach import reach_in_step
 from stackx.spec import RunSpec
 
 
@@ -89,7 +90,7 @@ def box_speeds(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, radius: np.ndarray
 
 
 def log_step(log: BatchLog, k: int, before: PlanarState, after: PlanarState, g: np.ndarray, dt: np.ndarray,
-             speculative: np.ndarray, criteria: Criteria) -> None:
+             speculative: np.ndarray, criteria: Criteria, reaches: np.ndarray | None = None) -> None:
     """Log step ``k`` of every batch row, from ``before`` to ``after`` (see the module text)."""
     radius = half_diagonal(after)
     for b in range(after.batch):
@@ -105,10 +106,13 @@ def log_step(log: BatchLog, k: int, before: PlanarState, after: PlanarState, g: 
         if log.crushed_at[b] >= 0:
             continue
         s = before
+        margin = speculative[b]
+        if reaches is not None and reaches[b]:  # the solver looks as far as the fastest box closes in the step
+            margin = max(margin, reach_in_step(s.vx[b], s.vy[b], s.w[b], s.inv_mass[b], s.hx[b], s.hy[b], g[b], dt[b]))
         try:
             found = log.reference.solve(b, s.x[b], s.y[b], s.angle[b], s.vx[b], s.vy[b], s.w[b], s.inv_mass[b],
                                         s.inv_inertia[b], s.hx[b], s.hy[b], s.friction[b], g[b], dt[b],
-                                        speculative[b])
+                                        margin)
         except ReferenceFailure:
             log.unsolved[b] += 1
             continue
@@ -145,12 +149,13 @@ class StepLog:
         g = np.array([r.gravity for r in runs], dtype=np.float64)
         dt = np.array([r.dt for r in runs], dtype=np.float64)
         speculative = np.array([float(getattr(r.solver_params, "speculative", 0.0)) for r in runs])
+        reaches = np.array([bool(getattr(r.solver_cls, "speculative_reach", False)) for r in runs])
 
         def on_step(k: int, before: PlanarState, after: PlanarState) -> None:
             log.steps = k + 1
             if after.bodies != log.bodies:  # a scene event took a box out: the remembered points name old indices
                 log.bodies = after.bodies
                 log.reference = ReferenceStep(after.batch, after.bodies)
-            log_step(log, k, before, after, g, dt, speculative, self.criteria)
+            log_step(log, k, before, after, g, dt, speculative, self.criteria, reaches)
 
         return on_step

@@ -6,7 +6,8 @@ how far a box ever got into another (``reach``), the fastest launch, and the RMS
 
 The bench adds what needs the scene: which boxes were placed where they should stay (their **drift**: how far
 they moved sideways, ``drift_x``, and turned, ``drift_angle``, from the start to the end), where the top of a
-rigid pile would be (``top_rest_error``), and the ramp's analytic answer (``slide_error``). Every measure is
+rigid pile would be (``top_rest_error``), the ramp's analytic answer (``slide_error``), and how the boxes
+that should end on a face or fallen ended (``land_tilt``, ``fall_tilt``). Every measure is
 deterministic.
 """
 
@@ -132,6 +133,22 @@ def drift(start: PlanarState, end: PlanarState, bodies: list[int]) -> dict[str, 
             "drift_angle": float(np.abs(end.angle[0, idx] - start.angle[0, idx]).max())}
 
 
+def tilts(start: PlanarState, end: PlanarState, lands: list[int], falls: list[int]) -> dict[str, float]:
+    """How the boxes that should end on a face or fallen did (row 0): ``land_tilt``, the largest distance of a
+    landing box's final angle from a multiple of 90 degrees (rad; 0 lying flat or upright on a face), and
+    ``fall_tilt``, the smallest final tilt from upright of a box placed to topple (rad, folded into
+    [0, pi/2]; a domino leaning on the next reads its lean, one still standing reads 0)."""
+    out: dict[str, float] = {}
+    quarter = np.pi / 2
+    if lands:
+        a = end.angle[0, np.asarray(lands)]
+        out["land_tilt"] = float(np.abs(a - quarter * np.round(a / quarter)).max())
+    if falls:
+        a = np.abs(np.remainder(end.angle[0, np.asarray(falls)] + np.pi, 2 * np.pi) - np.pi)  # [0, pi]
+        out["fall_tilt"] = float(np.minimum(a, np.pi - a).min())
+    return out
+
+
 def slide(end: PlanarState, box: int, angle: float, expected: float, time: float) -> dict[str, float]:
     """A ramp box's acceleration down the slope of ``angle`` (rad), from its final velocity after ``time``
     seconds from rest (symplectic steps give ``v = a t`` exactly under a constant force), and its distance
@@ -145,11 +162,14 @@ def bench_measures(result: RunResult) -> dict[str, float]:
     """What the bench's criteria read beyond the run's measures, from the scene: ``boxes``; ``drift_x`` and
     ``drift_angle`` where boxes should rest; ``top_rest_error`` (final height of the pile's top box minus its
     height on rigid boxes, negative when the pile sank), ``rest_contacts`` (contacts under it) and
-    ``top_p2p`` (its peak-to-peak height over the final window) where the scene is one pile; and
-    ``slide_acceleration`` / ``slide_error`` on a ramp."""
+    ``top_p2p`` (its peak-to-peak height over the final window) where the scene is one pile;
+    ``slide_acceleration`` / ``slide_error`` on a ramp; ``land_tilt`` and ``fall_tilt`` where boxes should
+    end on a face or fallen."""
     scene, final, steps = result.spec.scene, result.final, result.spec.steps
     out: dict[str, float] = {"boxes": float(final.bodies)}
-    out.update(drift(scene.build(), final, scene.rests()))
+    start = scene.build()
+    out.update(drift(start, final, scene.rests()))
+    out.update(tilts(start, final, scene.lands(), scene.falls()))
     top = scene.rest_top()
     if top is not None:
         body, height, contacts_below = top

@@ -1,11 +1,16 @@
 """What every engine solver shares: finding the engine, one world per batch row, reading the state back.
 
-An engine keeps its own bodies and stackx keeps the column's state, so every step goes the same way: each batch
-row's world is stepped by one call into the engine (an engine bound to Python cannot be asked for many steps and
-still be looked at after each), the heights and vertical velocities of its bodies are copied into the row's
-``y`` and ``v``, and then the column's monitors (``stackx.models.column.monitor.observe``) are updated for every row. Every
-measure and criterion is therefore computed by stackx from those heights, the same way as for its own solvers;
-nothing is taken from the engine's own reports (contacts, impulses, sleeping flags).
+An engine steps the models it declares (``models``: the column and the planar model), with one world class per
+model (``column``, ``planar``). An engine keeps its own bodies and stackx keeps the state, so every step goes the
+same way: each batch row's world is stepped by one call into the engine (an engine bound to Python cannot be
+asked for many steps and still be looked at after each), the bodies' coordinates are copied into the row's
+arrays, and then the model's monitors are updated for every row. Every measure and criterion is therefore
+computed by stackx from those positions, the same way as for its own solvers; nothing is taken from the
+engine's own reports (contacts, impulses, sleeping flags). The column's mapping is described here, the planar
+model's in ``stackx.solvers.engines.planar``.
+
+On the column, the heights and vertical velocities go into ``y`` and ``v`` and the column's monitors
+(``stackx.models.column.monitor.observe``) run.
 
 The worlds are built from the state the first time it is advanced (a solver is made before the state it
 steps): bottom box first, with the column's heights, velocities, masses and half-heights, gravity and the
@@ -16,9 +21,9 @@ joint) is said in its module. Boxes are ``WIDTH`` wide in the engine's horizonta
 locked and friction off, the width only places the contact points of a face. The floor is a static box whose
 top face is the line y = 0, ``FLOOR_WIDTH`` wide and ``FLOOR_DEPTH`` deep, or the engine's own infinite plane.
 
-Only the column model exists so far; the engine's knobs (its params and how a world is set up) are apart from the
-column's mapping (``column``, the ``World`` class that puts the column's boxes into a world), so another model
-joins as another such class beside it, with ``models`` naming both.
+The engine's knobs (its params and how a world is set up) are apart from each model's mapping (``column``,
+``planar``: the classes that put a model's bodies into a world), so another model joins as another such class
+beside them, named in ``models``.
 
 The engine's package is imported only when a solver is made, never when stackx or its plugin list is loaded.
 ``unavailable()`` says, without importing it, why an engine cannot run here (its package is not installed)
@@ -41,6 +46,8 @@ from stackx.kernel import kernel
 from stackx.models.column.monitor import observe
 from stackx.solvers.base import Solver
 from stackx.models.column.state import ColumnState
+from stackx.models.planar.state import PlanarState
+from stackx.solvers.engines.planar import Boxes, PlanarWorld, advance_planar
 
 WIDTH = 1.0  # horizontal size of every box in the engines (m)
 FLOOR_WIDTH = 100.0  # horizontal size of the floor box (m)
@@ -75,7 +82,9 @@ class World(Protocol):
 class Engine(Solver):
     """Base of the engine solvers: a subclass names its package and builds one ``World`` per batch row."""
 
+    models = ("column", "planar")
     column: ClassVar[type]  # its World for the column: made with (engine, params, g, dt, y, v, mass, half)
+    planar: ClassVar[type]  # its PlanarWorld: made with (engine, params, g, dt, Boxes)
     package: ClassVar[str]  # the module the engine is imported as, e.g. "Box2D"
     distribution: ClassVar[str]  # the name pip installs it by, e.g. "box2d"
     one_step_per_call: ClassVar[bool] = True  # stackx.bench.timing times it one step per call only
@@ -84,7 +93,7 @@ class Engine(Solver):
     def __init__(self, params: list[Any], gravity: np.ndarray, dt: np.ndarray) -> None:
         super().__init__(params, gravity, dt)
         self.engine = self.load()
-        self.worlds: list[World] | None = None
+        self.worlds: list[World] | list[PlanarWorld] | None = None
 
     @classmethod
     def install(cls) -> str:
@@ -120,9 +129,18 @@ class Engine(Solver):
         the engine's ``column`` class, given the engine's module, the row's params, gravity and dt."""
         return self.column(self.engine, self.params[b], float(self.gravity[b]), float(self.dt[b]), y, v, mass, half)
 
-    def advance(self, state: ColumnState, steps: int) -> None:
-        """``steps`` steps of every row: one engine call per row and step, the heights and velocities read back
-        into the state, then the monitors of every row. The worlds are built on the first call."""
+    def planar_world(self, b: int, boxes: Boxes) -> PlanarWorld:
+        """The world of batch row ``b`` holding the planar row ``boxes``: the engine's ``planar`` class."""
+        return self.planar(self.engine, self.params[b], float(self.gravity[b]), float(self.dt[b]), boxes)
+
+    def advance(self, state: ColumnState | PlanarState, steps: int) -> None:
+        """``steps`` steps of every row: one engine call per row and step, the positions and velocities read
+        back into the state, then the monitors of every row. The worlds are built on the first call."""
+        if isinstance(state, PlanarState):
+            if self.worlds is None:
+                self.worlds = [self.planar_world(b, Boxes.of(state, b)) for b in range(state.batch)]
+            advance_planar(self.worlds, state, self.dt, steps)  # type: ignore[arg-type]
+            return
         if self.worlds is None:
             self.worlds = [self.world(b, state.y[b].copy(), state.v[b].copy(), 1.0 / state.inv_mass[b],
                                       state.half[b].copy()) for b in range(state.batch)]

@@ -3,7 +3,7 @@ impulses carried between steps for warm starting."""
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -25,6 +25,7 @@ class PlanarSolver(Solver):
     """Base of the planar solvers: they step ``PlanarState``s."""
 
     models = ("planar",)
+    speculative_reach: ClassVar[bool] = False  # True: the contact margin grows with speed (planar.reach)
 
     def lab_correction(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Per batch row: whether the lab's correction runs, its slop and percent."""

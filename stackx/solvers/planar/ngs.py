@@ -2,7 +2,8 @@
 every separation again, rotation included (Box2D 2.x's solver).
 
 One step of one world:
-1. the velocity half (``contacts.solve_velocities``): gravity; the points within ``speculative`` of touching;
+1. the velocity half (``contacts.solve_velocities``): gravity; the points within ``speculative`` of touching,
+   or within what the fastest box can close in the step when that is more (``reach``);
    warm start by ``(A, B, feature)``; ``iterations`` passes with accumulated clamping, Coulomb friction and
    two-point manifolds' normals solved together (``block``);
 2. each point's face plane and corner fixed to the bodies that carry them (``contacts.anchor_locals``);
@@ -29,6 +30,7 @@ from stackx.models.planar.state import PlanarState
 from stackx.registry import solvers
 from stackx.solvers.contacts import speculative_field
 from stackx.solvers.planar.base import PlanarMemorySolver
+from stackx.solvers.planar.reach import reach_in_step
 from stackx.solvers.planar.contacts import (anchor_locals, contact_workspace, integrate_positions,
                                             separation_push, solve_velocities)
 
@@ -48,7 +50,9 @@ class PlanarNGSParams(BaseModel):
                                                "of the last one; off rebuilds every load from zero each step")
     block: bool = Field(True, description="solve the two normal impulses of a two-point manifold together "
                                           "(Box2D 2.x's block solver); off visits the corners one by one")
-    speculative: float = speculative_field(0.02)
+    speculative: float = speculative_field(0.02, " Here it grows to what the fastest box can close in the step "
+                                                 "(stackx.solvers.planar.reach), so a fast box is found before "
+                                                 "it is inside what it hits")
     percent: float = Field(0.2, gt=0, le=1, allow_inf_nan=False,
                            description="share of a point's depth beyond slop undone per visit: 1 overshoots as "
                                        "neighbours are pushed into each other, small values need more passes")
@@ -76,7 +80,8 @@ def planar_ngs_advance(x: np.ndarray, y: np.ndarray, angle: np.ndarray, vx: np.n
         ids, table = contact_workspace(keys.shape[1])
         for _ in range(steps):
             ids, table, count, held[b] = solve_velocities(
-                xb, yb, ab, vxb, vyb, wb, im, ii, hxb, hyb, mub, g[b], dt[b], speculative[b], carry[b],
+                xb, yb, ab, vxb, vyb, wb, im, ii, hxb, hyb, mub, g[b], dt[b],
+                max(speculative[b], reach_in_step(vxb, vyb, wb, im, hxb, hyb, g[b], dt[b])), carry[b],
                 iterations[b], block[b], 1.0, ids, table, keys[b], carried[b], held[b])
             anchor_locals(xb, yb, ab, ids, table, count)
             integrate_positions(xb, yb, ab, vxb, vyb, wb, dt[b])
@@ -93,6 +98,7 @@ class PlanarNGS(PlanarMemorySolver):
     """Velocity iterations, then position passes that re-measure every separation (Box2D 2.x)."""
 
     Params = PlanarNGSParams
+    speculative_reach = True  # contacts looked for as far as the fastest box closes (stackx.solvers.planar.reach)
 
     def __init__(self, params: list[PlanarNGSParams], gravity: np.ndarray, dt: np.ndarray) -> None:
         super().__init__(params, gravity, dt)

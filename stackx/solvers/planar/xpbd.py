@@ -1,7 +1,9 @@
 """XPBD with small steps on planar boxes (Macklin et al. 2019 and 2020): positions projected every substep,
 velocities derived from positions, Coulomb friction at the position level while it holds.
 
-Contacts are found once per step, within ``speculative`` of touching (``contacts.find_contacts``); their
+Contacts are found once per step, within ``speculative`` of touching, or within what the fastest box can close
+in the step when that is more (``reach_in_step``: a corner of a falling box moves 0.1 m per step at 6 m/s,
+and one found only when already deep would be pushed out a step late) (``contacts.find_contacts``); their
 separations are measured again from the bodies' poses at every visit (``substep.separation``: anchors move
 and turn with their bodies, the normal is held). Then, ``substeps`` times with ``h = dt / substeps``:
 
@@ -10,12 +12,16 @@ and turn with their bodies, the normal is held). Then, ``substeps`` times with `
    to touching by position impulses along the normal, both points of a face together (a 2x2 solve, so a
    box landing flat is not tipped by whichever corner came first), with the generalized inverse masses
    ``1/m + (r x n)^2 / I`` of the anchors as they are now, so a push at a corner also turns the box; with
-   ``compliance`` each impulse is ``-separation / (w + compliance / h^2)``. Then **static friction**, per
+   ``compliance`` each impulse is ``-separation / (w + compliance / h^2)``. Overlap that the substep's own
+   motion made is removed whole; overlap already there when the substep began loses at most ``max_push``
+   times ``h`` (the velocity a push gives is kept in step 3, so a deep overlap removed in one substep of
+   1/1200 s would leave at depth x 1200 m/s). Then **static friction**, per
    point: the slip of the two anchored points along the tangent since the step began is undone by a
    tangential position impulse of at most ``mu`` times the point's normal one;
 3. velocities are what the boxes did: ``v = (x - x_before)/h``, ``w = (angle - angle_before)/h``;
-4. velocity pass over the manifolds the projection pushed: stop their points' approach (restitution 0; a
-   push-out keeps the speed it gave), then **dynamic friction**: each point's tangential velocity is opposed
+4. velocity pass over the manifolds the projection pushed: stop the approach of their points within
+   ``speculative`` of touching (restitution 0; a push-out keeps the speed it gave; a point further apart may
+   close its gap in the next substep), then **dynamic friction**: each point's tangential velocity is opposed
    with whatever is left of ``mu`` times its normal impulse ``dl / h`` after static friction's share.
 
 So each point's friction in a substep is at most ``mu`` times its normal impulse (Coulomb's box, one ``mu``
@@ -33,6 +39,7 @@ at linear cost.
 from __future__ import annotations
 
 import numpy as np
+from pydantic import Field
 
 from stackx.kernel import kernel, prange
 from stackx.models.planar.monitor import contact_room, observe
@@ -40,6 +47,7 @@ from stackx.models.planar.state import PlanarState
 from stackx.registry import solvers
 from stackx.solvers.contacts import speculative_field
 from stackx.solvers.planar.base import PlanarSolver
+from stackx.solvers.planar.reach import reach_in_step
 from stackx.solvers.planar.contacts import (A, B, MU, NX, NY, PN, PT, RAX, RAY, RBX, RBY, apply_impulse,
                                             contact_workspace, effective_mass, find_contacts, gravity,
                                             integrate_positions, prepare, relative_velocity, two_point_lcp)
@@ -53,7 +61,14 @@ class PlanarXPBDParams(XPBDParams):
 
     speculative: float = speculative_field(
         0.05, " Here: points within this gap when the step begins are followed through its substeps; a box "
-              "closing faster than this per step reaches its neighbour unseen and is pushed out a step late")
+              "closing faster than this per step reaches its neighbour unseen and is pushed out a step late; "
+              "the margin grows to what the fastest box can close in the step when that is more")
+    max_push: float = Field(0.5, gt=0, allow_inf_nan=False,
+                            description="fastest a projection may push out an overlap that was there when the "
+                                        "substep began (m/s): it removes at most max_push x h of it per substep, "
+                                        "since the velocity derived from a push is kept; removed whole, 5 cm in "
+                                        "1/1200 s would leave at 60 m/s. Overlap a substep's own motion made is "
+                                        "removed whole (that only stops the approach)")
 
 
 @kernel
@@ -147,9 +162,26 @@ def normal_impulses(ids: np.ndarray, now: np.ndarray, start: int, end: int, inv_
 
 
 @kernel
+def held_back(held: np.ndarray, k: int, push: float) -> float:
+    """The separation (m, at most 0) the projection leaves point ``k`` at: an overlap ``-held[k]`` that was
+    there when the substep began is undone by at most ``push`` (``max_push`` times ``h``); one the substep's
+    own motion made is undone whole."""
+    return min(min(held[k], 0.0) + push, 0.0)
+
+
+@kernel
+def separations(ids: np.ndarray, table: np.ndarray, base: np.ndarray, since: np.ndarray, count: int,
+                out: np.ndarray) -> None:
+    """Every point's separation now, into ``out``."""
+    for k in range(count):
+        out[k] = separation(ids, table, base, since, k)
+
+
+@kernel
 def project(x: np.ndarray, y: np.ndarray, angle: np.ndarray, inv_mass: np.ndarray, inv_inertia: np.ndarray,
             ids: np.ndarray, table: np.ndarray, count: int, base: np.ndarray, start: np.ndarray,
-            since: np.ndarray, before: np.ndarray, now: np.ndarray, stiffness: float) -> None:
+            since: np.ndarray, before: np.ndarray, now: np.ndarray, stiffness: float, held: np.ndarray,
+            push: float) -> None:
     """One projection pass over the manifolds in table order: the overlapping points of each pushed to
     touching together (``stiffness``: compliance over ``h^2``; 0 is rigid), then each point's slip undone
     while that takes at most ``mu`` times its normal impulse. ``PN``, ``PT`` receive this pass's position
@@ -157,8 +189,8 @@ def project(x: np.ndarray, y: np.ndarray, angle: np.ndarray, inv_mass: np.ndarra
     first = 0
     while first < count:
         end = manifold_end(ids, first, count)
-        s1 = separation(ids, table, base, since, first)
-        s2 = separation(ids, table, base, since, first + 1) if end - first == 2 else 0.0
+        s1 = separation(ids, table, base, since, first) - held_back(held, first, push)
+        s2 = separation(ids, table, base, since, first + 1) - held_back(held, first + 1, push) if end - first == 2 else 0.0
         for k in range(first, end):
             table[k, PN], table[k, PT] = 0.0, 0.0
         if s1 < 0.0 or s2 < 0.0:
@@ -196,9 +228,16 @@ def derive_velocities(x: np.ndarray, y: np.ndarray, angle: np.ndarray, vx: np.nd
 
 
 @kernel
+def gap(ids: np.ndarray, table: np.ndarray, base: np.ndarray, since: np.ndarray, k: int, near: float) -> float:
+    """How far apart point ``k`` is now when that is more than ``near`` (m), else 0."""
+    s = separation(ids, table, base, since, k)
+    return s if s > near else 0.0
+
+
+@kernel
 def velocity_pass(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, inv_mass: np.ndarray, inv_inertia: np.ndarray,
-                  ids: np.ndarray, table: np.ndarray, count: int, since: np.ndarray, now: np.ndarray,
-                  h: float) -> None:
+                  ids: np.ndarray, table: np.ndarray, count: int, base: np.ndarray, since: np.ndarray,
+                  now: np.ndarray, h: float, near: float) -> None:
     """Over the manifolds the projection pushed: stop the approach of their points, both together (the
     velocity a push-out gave is kept, as the derived velocity of any position change is), then oppose each
     point's tangential velocity with at most ``mu`` times its normal impulse (dynamic friction)."""
@@ -210,8 +249,13 @@ def velocity_pass(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, inv_mass: np.nd
             nx, ny = table[first, NX], table[first, NY]
             for k in range(first, end):
                 current_anchors(ids, table, since, k, now)
-            u1 = relative_velocity(vx, vy, w, ids, now, first, nx, ny)
-            u2 = relative_velocity(vx, vy, w, ids, now, first + 1, nx, ny) if end - first == 2 else 0.0
+            # a point within ``near`` of touching has its approach stopped; one further apart (found only
+            # because something moves fast) may close its gap within the next substep
+            u1 = relative_velocity(vx, vy, w, ids, now, first, nx, ny) + gap(ids, table, base, since, first, near) / h
+            u2 = 0.0
+            if end - first == 2:
+                u2 = relative_velocity(vx, vy, w, ids, now, first + 1, nx, ny) + gap(ids, table, base, since,
+                                                                                    first + 1, near) / h
             p1, p2 = normal_impulses(ids, now, first, end, inv_mass, inv_inertia, u1, u2, 0.0)
             apply_impulse(vx, vy, w, inv_mass, inv_inertia, ids, now, first, p1 * nx, p1 * ny)
             if end - first == 2:
@@ -228,7 +272,7 @@ def velocity_pass(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, inv_mass: np.nd
 def xpbd_advance(x: np.ndarray, y: np.ndarray, angle: np.ndarray, vx: np.ndarray, vy: np.ndarray, w: np.ndarray,
                  inv_mass: np.ndarray, inv_inertia: np.ndarray, hx: np.ndarray, hy: np.ndarray,
                  friction: np.ndarray, g: np.ndarray, dt: np.ndarray, substeps: np.ndarray,
-                 compliance: np.ndarray, speculative: np.ndarray, last: np.ndarray, peak: np.ndarray,
+                 compliance: np.ndarray, speculative: np.ndarray, max_push: np.ndarray, last: np.ndarray, peak: np.ndarray,
                  reach: np.ndarray, touched: np.ndarray, launch: np.ndarray, steps: int) -> None:
     """``steps`` steps of every batch row, in place."""
     for b in prange(x.shape[0]):
@@ -240,13 +284,16 @@ def xpbd_advance(x: np.ndarray, y: np.ndarray, angle: np.ndarray, vx: np.ndarray
         ids, table = contact_workspace(contact_room(n))
         now = table.copy()
         base = np.empty(table.shape[0])
+        held = np.empty(table.shape[0])  # each point's separation as the substep begins
         start, poses = np.empty((n, 3)), np.empty((n, 3))
         since, before = np.empty((n, 4)), np.empty((n, 4))
         for _ in range(steps):
-            ids, table, count = find_contacts(xb, yb, ab, hxb, hyb, im, speculative[b], ids, table)
+            margin = max(speculative[b], reach_in_step(vxb, vyb, wb, im, hxb, hyb, g[b], dt[b]))
+            ids, table, count = find_contacts(xb, yb, ab, hxb, hyb, im, margin, ids, table)
             prepare(xb, yb, im, ii, mub, ids, table, count)
             if base.shape[0] < count:
                 base = np.empty(table.shape[0])
+                held = np.empty(table.shape[0])
             if now.shape[0] < count:
                 now = table.copy()
             now[:count] = table[:count]
@@ -256,12 +303,14 @@ def xpbd_advance(x: np.ndarray, y: np.ndarray, angle: np.ndarray, vx: np.ndarray
             for _ in range(substeps[b]):
                 for i in range(n):
                     poses[i, 0], poses[i, 1], poses[i, 2] = xb[i], yb[i], ab[i]
+                separations(ids, table, base, since, count, held)
                 gravity(vyb, im, g[b], h)
                 integrate_positions(xb, yb, ab, vxb, vyb, wb, h)
                 moved(xb, yb, ab, start, since)
-                project(xb, yb, ab, im, ii, ids, table, count, base, start, since, before, now, stiffness)
+                project(xb, yb, ab, im, ii, ids, table, count, base, start, since, before, now, stiffness, held,
+                        max_push[b] * h)
                 derive_velocities(xb, yb, ab, vxb, vyb, wb, im, poses, h)
-                velocity_pass(vxb, vyb, wb, im, ii, ids, table, count, since, now, h)
+                velocity_pass(vxb, vyb, wb, im, ii, ids, table, count, base, since, now, h, speculative[b])
             observe(xb, yb, ab, hxb, hyb, im, dt[b], last, peak, reach, touched, launch, b)
 
 
@@ -271,12 +320,14 @@ class PlanarXPBD(PlanarSolver):
     positions (Macklin et al.)."""
 
     Params = PlanarXPBDParams
+    speculative_reach = True  # contacts looked for as far as the fastest box closes (stackx.solvers.planar.reach)
 
     def __init__(self, params: list[PlanarXPBDParams], gravity: np.ndarray, dt: np.ndarray) -> None:
         super().__init__(params, gravity, dt)
         self.substeps = self.counts("substeps")
         self.compliance = self.column("compliance")
         self.speculative = self.column("speculative")
+        self.max_push = self.column("max_push")
 
     @classmethod
     def passes(cls, params: PlanarXPBDParams) -> int:
@@ -285,4 +336,5 @@ class PlanarXPBD(PlanarSolver):
     def advance(self, state: PlanarState, steps: int) -> None:
         s = state
         xpbd_advance(s.x, s.y, s.angle, s.vx, s.vy, s.w, s.inv_mass, s.inv_inertia, s.hx, s.hy, s.friction,
-                     self.gravity, self.dt, self.substeps, self.compliance, self.speculative, *s.monitors(), steps)
+                     self.gravity, self.dt, self.substeps, self.compliance, self.speculative,
+                     self.max_push, *s.monitors(), steps)
