@@ -2,8 +2,9 @@
 ``stackx init lab && stackx run lab/configs/``; the lab's artifacts are those of the repository's configs.
 
 Selected alone with ``-m wheel``; part of the default run. The build fetches its backend (setuptools) from the
-package index as any ``pip wheel`` does; the venv sees the machine's packages (``--system-site-packages``),
-so stackx is installed into it with ``--no-deps`` (by this Python's pip, ``--python``) and nothing else is
+package index as any ``pip wheel`` does. The venv sees the packages of the Python running the tests (a
+``.pth`` file naming its site folders, so the same holds whether that Python is a venv or the system's), so
+stackx is installed into it with ``--no-deps`` (by this Python's pip, ``--python``) and nothing else is
 downloaded.
 """
 
@@ -11,6 +12,7 @@ from __future__ import annotations
 
 import os
 import shutil
+import site
 import subprocess
 import sys
 import zipfile
@@ -40,6 +42,30 @@ def _env(venv: Path) -> dict[str, str]:
     return env
 
 
+def _site_folders() -> list[str]:
+    """Where this Python finds its packages: its site folders (a venv's own, and its base's when it was made
+    with ``--system-site-packages``) and the user's, as ``site`` set them up for this interpreter."""
+    folders = list(site.getsitepackages())
+    if site.ENABLE_USER_SITE:
+        folders.append(site.getusersitepackages())
+    return [f for f in folders if Path(f).is_dir()]
+
+
+def _venv_seeing_this_python(venv: Path) -> Path:
+    """A venv whose own site folder comes first and that then sees this Python's packages.
+
+    ``venv --system-site-packages`` would reach the *base* interpreter's packages: run from inside a venv,
+    that is not where this Python's dependencies are. A ``.pth`` line appends a folder to ``sys.path``
+    without running the ``.pth`` files in it, so an editable install of this checkout stays out.
+    """
+    subprocess.run([sys.executable, "-m", "venv", "--without-pip", str(venv)], check=True, timeout=120)
+    python = venv / "bin" / "python"
+    own = subprocess.run([str(python), "-c", "import sysconfig; print(sysconfig.get_paths()['purelib'])"],
+                         check=True, capture_output=True, text=True).stdout.strip()
+    (Path(own) / "_tests_outer_site.pth").write_text("".join(f"{f}\n" for f in _site_folders()))
+    return python
+
+
 def test_stackx_init_then_run_from_an_installed_wheel(tmp_path: Path) -> None:
     source = tmp_path / "source"
     source.mkdir()
@@ -62,9 +88,7 @@ def test_stackx_init_then_run_from_an_installed_wheel(tmp_path: Path) -> None:
     assert packaged == _shipped()
 
     venv = tmp_path / "venv"
-    subprocess.run([sys.executable, "-m", "venv", "--without-pip", "--system-site-packages", str(venv)],
-                   check=True, timeout=120)
-    python = venv / "bin" / "python"
+    python = _venv_seeing_this_python(venv)
     subprocess.run([sys.executable, "-m", "pip", "--python", str(python), "install", "--no-deps", "--no-index",
                     "--quiet", str(wheel)], check=True, capture_output=True, text=True, timeout=300)
 
