@@ -22,6 +22,7 @@ from __future__ import annotations
 import numpy as np
 
 from stackx.kernel import kernel
+from stackx.models.planar.broad import bounds, candidate_pairs
 
 GROUND = -1
 REFERENCE_BIAS = 0.98  # box b becomes the reference only when clearly better: keeps the choice from flipping
@@ -129,11 +130,10 @@ def box_points(i: int, j: int, x: np.ndarray, y: np.ndarray, angle: np.ndarray, 
             incident, lowest = f, d
     fx, fy, e, w = face_axis(x[k], y[k], ck, sk, hx[k], hy[k], incident)
     gx, gy = -fy, fx
-    ends = np.empty((2, 2))
-    ends[0, 0], ends[0, 1] = x[k] + fx * e + gx * w, y[k] + fy * e + gy * w
-    ends[1, 0], ends[1, 1] = x[k] + fx * e - gx * w, y[k] + fy * e - gy * w
-    u0 = (ends[0, 0] - x[r]) * tx + (ends[0, 1] - y[r]) * ty
-    u1 = (ends[1, 0] - x[r]) * tx + (ends[1, 1] - y[r]) * ty
+    e0x, e0y = x[k] + fx * e + gx * w, y[k] + fy * e + gy * w  # the incident edge's two ends
+    e1x, e1y = x[k] + fx * e - gx * w, y[k] + fy * e - gy * w
+    u0 = (e0x - x[r]) * tx + (e0y - y[r]) * ty
+    u1 = (e1x - x[r]) * tx + (e1y - y[r]) * ty
     for bound in (-width, width):  # clip the edge to the reference face's width, one side at a time
         out0 = u0 < bound if bound < 0 else u0 > bound
         out1 = u1 < bound if bound < 0 else u1 > bound
@@ -141,19 +141,18 @@ def box_points(i: int, j: int, x: np.ndarray, y: np.ndarray, angle: np.ndarray, 
             return n
         if out0 or out1:
             t = (bound - u0) / (u1 - u0)
-            px, py = ends[0, 0] + t * (ends[1, 0] - ends[0, 0]), ends[0, 1] + t * (ends[1, 1] - ends[0, 1])
-            end = 0 if out0 else 1
-            ends[end, 0], ends[end, 1] = px, py
+            px, py = e0x + t * (e1x - e0x), e0y + t * (e1y - e0y)
             if out0:
-                u0 = bound
+                e0x, e0y, u0 = px, py, bound
             else:
-                u1 = bound
+                e1x, e1y, u1 = px, py, bound
     sign = -1.0 if flip else 1.0  # the normal goes from i to j
     for end in range(2):
-        sep = (ends[end, 0] - x[r]) * nx + (ends[end, 1] - y[r]) * ny - extent
+        ex, ey = (e0x, e0y) if end == 0 else (e1x, e1y)
+        sep = (ex - x[r]) * nx + (ey - y[r]) * ny - extent
         if sep <= margin:
             feature = (1 if flip else 0) * 64 + face * 16 + incident * 4 + end
-            n = add_point(n, i, j, sign * nx, sign * ny, ends[end, 0] - 0.5 * sep * nx, ends[end, 1] - 0.5 * sep * ny,
+            n = add_point(n, i, j, sign * nx, sign * ny, ex - 0.5 * sep * nx, ey - 0.5 * sep * ny,
                           -sep, feature, body_a, body_b, normal, point, depths, features)
     return n
 
@@ -164,23 +163,28 @@ def collide(x: np.ndarray, y: np.ndarray, angle: np.ndarray, hx: np.ndarray, hy:
             depths: np.ndarray, features: np.ndarray) -> int:
     """Every contact point of one world (one batch row's arrays): boxes on the ground, then pairs of boxes
     whose bounding boxes come within ``margin``, in index order; returns the number of points (more than
-    the arrays hold when they were too small). Two static boxes never collide."""
+    the arrays hold when they were too small). Two static boxes never collide.
+
+    The pairs are the broad phase's candidates (``broad.candidate_pairs``, a grid: linear in the boxes),
+    each tested again here as every pair once was, so the points and their order are those of testing
+    every pair."""
     bodies = x.shape[0]
     n = 0
     reach_x = np.empty(bodies)
     reach_y = np.empty(bodies)
+    bounds(x, y, angle, hx, hy, reach_x, reach_y)
     for i in range(bodies):
-        c, s = abs(np.cos(angle[i])), abs(np.sin(angle[i]))
-        reach_x[i] = c * hx[i] + s * hy[i]
-        reach_y[i] = s * hx[i] + c * hy[i]
         if not static[i] and y[i] - reach_y[i] <= margin:
             n = ground_points(i, x[i], y[i], angle[i], hx[i], hy[i], margin, n, body_a, body_b, normal, point,
                               depths, features)
-    for i in range(bodies):
-        for j in range(i + 1, bodies):
-            if static[i] and static[j]:
-                continue
-            if abs(x[i] - x[j]) > reach_x[i] + reach_x[j] + margin or abs(y[i] - y[j]) > reach_y[i] + reach_y[j] + margin:
-                continue
-            n = box_points(i, j, x, y, angle, hx, hy, margin, n, body_a, body_b, normal, point, depths, features)
+    keys = np.empty(4 * bodies + 16, np.int64)
+    pairs = candidate_pairs(x, y, reach_x, reach_y, static, margin, keys)
+    if pairs > keys.shape[0]:
+        keys = np.empty(pairs, np.int64)
+        pairs = candidate_pairs(x, y, reach_x, reach_y, static, margin, keys)
+    for p in range(pairs):
+        i, j = keys[p] // bodies, keys[p] % bodies
+        if abs(x[i] - x[j]) > reach_x[i] + reach_x[j] + margin or abs(y[i] - y[j]) > reach_y[i] + reach_y[j] + margin:
+            continue
+        n = box_points(i, j, x, y, angle, hx, hy, margin, n, body_a, body_b, normal, point, depths, features)
     return n

@@ -13,6 +13,8 @@ Functions, in the order a step uses them:
 - ``gravity(vy, inv_mass, g, dt)``: ``vy += g * dt`` for every movable body;
 - ``find_contacts(...)``: fill the table from ``collide`` (points within ``margin`` of touching), growing it
   when the world has more points than room; returns the (maybe new) table and the count;
+- ``observed_contacts(...)``: ``find_contacts`` where a step ended, the list serving both the step's monitors
+  and the next step (which starts at the same positions): one collision test a step, not one per use;
 - ``prepare(...)``: per point the anchors ``r_A``, ``r_B`` (the point minus each centre), the effective normal
   and tangent masses ``k = 1 / (m_A^-1 + m_B^-1 + I_A^-1 (r_A x d)^2 + I_B^-1 (r_B x d)^2)`` for ``d = n, t``
   and the point's friction (``sqrt(mu_A mu_B)``; against the ground the box's own ``mu``);
@@ -30,8 +32,8 @@ Functions, in the order a step uses them:
   accumulated clamping: the normal total >= 0, the friction total within ``[-mu pn, mu pn]``;
 - ``accumulated_iteration(...)``: one Gauss-Seidel pass over the manifolds, normals then friction, each
   normal step optionally over-relaxed;
-- ``solve_velocities(...)``: the velocity half of a step with accumulated impulses, the stages above in
-  order: gravity, contacts within ``speculative``, targets, warm start (or none), iterations, remember;
+- ``solve_velocities(...)``: the velocity half of a step with accumulated impulses on the step's points, the
+  stages above in order: gravity, anchors and masses, targets, warm start (or none), iterations, remember;
 - ``integrate_positions(...)``: positions and angles move with the velocities over ``dt``;
 - ``separation_push(...)``: one nonlinear Gauss-Seidel pass on positions (Box2D 2.x's position solve): each
   point's separation measured again from where its bodies are now (``anchor_locals``), and the point pushed
@@ -52,6 +54,7 @@ import numpy as np
 from stackx.correct import correct
 from stackx.kernel import kernel
 from stackx.models.planar.collide import collide
+from stackx.models.planar.monitor import observe_points
 
 # ids columns
 A, B, FEATURE = 0, 1, 2
@@ -92,6 +95,20 @@ def find_contacts(x: np.ndarray, y: np.ndarray, angle: np.ndarray, hx: np.ndarra
         if count <= ids.shape[0]:
             return ids, table, count
         ids, table = contact_workspace(count)
+
+
+@kernel
+def observed_contacts(x: np.ndarray, y: np.ndarray, angle: np.ndarray, hx: np.ndarray, hy: np.ndarray,
+                      inv_mass: np.ndarray, margin: float, ids: np.ndarray, table: np.ndarray, dt: float,
+                      last: np.ndarray, peak: np.ndarray, reach: np.ndarray, touched: np.ndarray,
+                      launch: np.ndarray, b: int) -> tuple[np.ndarray, np.ndarray, int]:
+    """The contacts where a step ended, found once for two uses: the monitors of row ``b`` for this step
+    (``monitor.observe_points``) and the next step, which starts where this one ended (the solver passes
+    the table on instead of finding it again). Returns ``find_contacts``'s ``(ids, table, count)``."""
+    ids, table, count = find_contacts(x, y, angle, hx, hy, inv_mass, margin, ids, table)
+    observe_points(ids[:, A], ids[:, B], table[:, DEPTH], count, y, hx, hy, inv_mass, dt, last, peak, reach,
+                   touched, launch, b)
+    return ids, table, count
 
 
 @kernel
@@ -353,20 +370,18 @@ def accumulated_iteration(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, inv_mas
 
 
 @kernel
-def solve_velocities(x: np.ndarray, y: np.ndarray, angle: np.ndarray, vx: np.ndarray, vy: np.ndarray,
-                     w: np.ndarray, inv_mass: np.ndarray, inv_inertia: np.ndarray, hx: np.ndarray, hy: np.ndarray,
-                     friction: np.ndarray, g: float, dt: float, speculative: float, carry: bool, iterations: int,
-                     block: bool, relaxation: float, ids: np.ndarray, table: np.ndarray, keys: np.ndarray,
-                     carried: np.ndarray,
-                     held: int) -> tuple[np.ndarray, np.ndarray, int, int]:
-    """The velocity half of a step with accumulated impulses: gravity; the points within ``speculative`` of
-    touching with their anchors, masses and targets; the last step's impulses found again and applied
-    (``carry``; otherwise every point starts from zero); ``iterations`` passes (two-point manifolds' normals
-    together when ``block``); this step's impulses kept.
+def solve_velocities(x: np.ndarray, y: np.ndarray, vx: np.ndarray, vy: np.ndarray, w: np.ndarray,
+                     inv_mass: np.ndarray, inv_inertia: np.ndarray, friction: np.ndarray, g: float, dt: float,
+                     carry: bool, iterations: int, block: bool, relaxation: float, ids: np.ndarray,
+                     table: np.ndarray, count: int, keys: np.ndarray, carried: np.ndarray, held: int) -> int:
+    """The velocity half of a step with accumulated impulses, on the step's contact points (the first
+    ``count`` of the table, found within the solver's speculative margin where the step starts): gravity;
+    the points' anchors, masses and targets; the last step's impulses found again and applied (``carry``;
+    otherwise every point starts from zero); ``iterations`` passes (two-point manifolds' normals together
+    when ``block``); this step's impulses kept.
     ``relaxation`` scales every normal step (1: plain Gauss-Seidel; see ``accumulated_iteration``).
-    Returns the table (maybe grown), its count and how many points the memory now holds."""
+    Returns how many points the memory now holds."""
     gravity(vy, inv_mass, g, dt)
-    ids, table, count = find_contacts(x, y, angle, hx, hy, inv_mass, speculative, ids, table)
     prepare(x, y, inv_mass, inv_inertia, friction, ids, table, count)
     set_targets(table, count, dt)
     if carry:
@@ -374,7 +389,7 @@ def solve_velocities(x: np.ndarray, y: np.ndarray, angle: np.ndarray, vx: np.nda
         warm_start(vx, vy, w, inv_mass, inv_inertia, ids, table, count)
     for _ in range(iterations):
         accumulated_iteration(vx, vy, w, inv_mass, inv_inertia, ids, table, count, block, relaxation)
-    return ids, table, count, remember(ids, table, count, keys, carried)
+    return remember(ids, table, count, keys, carried)
 
 
 @kernel

@@ -40,13 +40,12 @@ import numpy as np
 from pydantic import Field
 
 from stackx.kernel import kernel, prange
-from stackx.models.planar.monitor import observe
 from stackx.models.planar.state import PlanarState
 from stackx.registry import solvers
 from stackx.solvers.planar.base import PlanarMemorySolver
 from stackx.solvers.planar.contacts import (A, B, KN, KT, MU, NX, NY, PN, PT, apply_impulse, contact_workspace,
-                                            find_contacts, gravity, integrate_positions, prepare, recall,
-                                            relative_velocity, remember, warm_start)
+                                            find_contacts, gravity, integrate_positions, observed_contacts,
+                                            prepare, recall, relative_velocity, remember, warm_start)
 from stackx.solvers.planar.substep import base_separations, manifold_end, moved, separation, step_start
 from stackx.solvers.soft_step import STATIC_HERTZ, SoftStepParams, soft
 
@@ -135,8 +134,8 @@ def soft_step_advance(x: np.ndarray, y: np.ndarray, angle: np.ndarray, vx: np.nd
         base = np.empty(keys.shape[1])
         start = np.empty((n, 3))
         since = np.empty((n, 4))
+        ids, table, count = find_contacts(xb, yb, ab, hxb, hyb, im, speculative[b], ids, table)
         for _ in range(steps):
-            ids, table, count = find_contacts(xb, yb, ab, hxb, hyb, im, speculative[b], ids, table)
             prepare(xb, yb, im, ii, mub, ids, table, count)
             if base.shape[0] < count:
                 base = np.empty(ids.shape[0])
@@ -153,7 +152,8 @@ def soft_step_advance(x: np.ndarray, y: np.ndarray, angle: np.ndarray, vx: np.nd
                 if relax[b]:
                     soft_pass(vxb, vyb, wb, im, ii, ids, table, count, base, since, h, False, push_out[b], softness)
             held[b] = remember(ids, table, count, keys[b], carried[b])
-            observe(xb, yb, ab, hxb, hyb, im, dt[b], last, peak, reach, touched, launch, b)
+            ids, table, count = observed_contacts(xb, yb, ab, hxb, hyb, im, speculative[b], ids, table, dt[b],
+                                                  last, peak, reach, touched, launch, b)
 
 
 @solvers.register("planar-soft-step")

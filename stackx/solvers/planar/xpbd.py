@@ -35,14 +35,15 @@ from __future__ import annotations
 import numpy as np
 
 from stackx.kernel import kernel, prange
-from stackx.models.planar.monitor import contact_room, observe
+from stackx.models.planar.monitor import contact_room
 from stackx.models.planar.state import PlanarState
 from stackx.registry import solvers
 from stackx.solvers.contacts import speculative_field
 from stackx.solvers.planar.base import PlanarSolver
 from stackx.solvers.planar.contacts import (A, B, MU, NX, NY, PN, PT, RAX, RAY, RBX, RBY, apply_impulse,
                                             contact_workspace, effective_mass, find_contacts, gravity,
-                                            integrate_positions, prepare, relative_velocity, two_point_lcp)
+                                            integrate_positions, observed_contacts, prepare, relative_velocity,
+                                            two_point_lcp)
 from stackx.solvers.planar.substep import (anchor, base_separations, manifold_end, moved, moved_body, separation,
                                            step_start)
 from stackx.solvers.xpbd import XPBDParams
@@ -242,8 +243,8 @@ def xpbd_advance(x: np.ndarray, y: np.ndarray, angle: np.ndarray, vx: np.ndarray
         base = np.empty(table.shape[0])
         start, poses = np.empty((n, 3)), np.empty((n, 3))
         since, before = np.empty((n, 4)), np.empty((n, 4))
+        ids, table, count = find_contacts(xb, yb, ab, hxb, hyb, im, speculative[b], ids, table)
         for _ in range(steps):
-            ids, table, count = find_contacts(xb, yb, ab, hxb, hyb, im, speculative[b], ids, table)
             prepare(xb, yb, im, ii, mub, ids, table, count)
             if base.shape[0] < count:
                 base = np.empty(table.shape[0])
@@ -262,7 +263,8 @@ def xpbd_advance(x: np.ndarray, y: np.ndarray, angle: np.ndarray, vx: np.ndarray
                 project(xb, yb, ab, im, ii, ids, table, count, base, start, since, before, now, stiffness)
                 derive_velocities(xb, yb, ab, vxb, vyb, wb, im, poses, h)
                 velocity_pass(vxb, vyb, wb, im, ii, ids, table, count, since, now, h)
-            observe(xb, yb, ab, hxb, hyb, im, dt[b], last, peak, reach, touched, launch, b)
+            ids, table, count = observed_contacts(xb, yb, ab, hxb, hyb, im, speculative[b], ids, table, dt[b],
+                                                  last, peak, reach, touched, launch, b)
 
 
 @solvers.register("planar-xpbd")
