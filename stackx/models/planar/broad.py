@@ -21,14 +21,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from stackx.kernel import kernel
+from stackx.kernel import kernel, leaf
 
 LARGE = 16  # a box covering more cells than this is tested against every box instead of being gridded
 FARTHEST = 1e12  # cells from the origin beyond which a box is tested against every box (no integer overflow)
 ROUNDING = 1e-9  # relative widening of each bound: far above float64 rounding, far below any contact margin
 
 
-@kernel
+@leaf
 def bounds(x: np.ndarray, y: np.ndarray, angle: np.ndarray, hx: np.ndarray, hy: np.ndarray, reach_x: np.ndarray,
            reach_y: np.ndarray) -> None:
     """Half-sizes of each box's axis-aligned bounding box: ``reach_x = |cos| hx + |sin| hy``, and the same
@@ -45,7 +45,7 @@ def bucket(cx: int, cy: int, mask: int) -> int:
     return ((cx * 73856093) ^ (cy * 19349663)) & mask
 
 
-@kernel
+@leaf
 def overlap(lo_x: np.ndarray, hi_x: np.ndarray, lo_y: np.ndarray, hi_y: np.ndarray, i: int, j: int) -> bool:
     """Whether the widened bounding boxes of ``i`` and ``j`` overlap; a bound that is not a number overlaps
     everything (as it passes the narrow phase's own test)."""

@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from stackx.kernel import kernel
+from stackx.kernel import kernel, leaf
 from stackx.models.planar.broad import bounds, candidate_pairs
 
 GROUND = -1
@@ -62,7 +62,7 @@ def separation(xa: float, ya: float, ca: float, sa: float, hxa: float, hya: floa
     return best, best_face
 
 
-@kernel
+@leaf
 def add_point(n: int, a: int, b: int, nx: float, ny: float, px: float, py: float, depth: float, feature: int,
               body_a: np.ndarray, body_b: np.ndarray, normal: np.ndarray, point: np.ndarray, depths: np.ndarray,
               features: np.ndarray) -> int:
@@ -76,7 +76,7 @@ def add_point(n: int, a: int, b: int, nx: float, ny: float, px: float, py: float
     return n + 1
 
 
-@kernel
+@leaf
 def ground_points(i: int, x: float, y: float, angle: float, hx: float, hy: float, margin: float, n: int,
                   body_a: np.ndarray, body_b: np.ndarray, normal: np.ndarray, point: np.ndarray,
                   depths: np.ndarray, features: np.ndarray) -> int:
@@ -104,7 +104,7 @@ def ground_points(i: int, x: float, y: float, angle: float, hx: float, hy: float
     return n
 
 
-@kernel
+@leaf
 def box_points(i: int, j: int, x: np.ndarray, y: np.ndarray, angle: np.ndarray, hx: np.ndarray, hy: np.ndarray,
                margin: float, n: int, body_a: np.ndarray, body_b: np.ndarray, normal: np.ndarray,
                point: np.ndarray, depths: np.ndarray, features: np.ndarray) -> int:

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from stackx.kernel import kernel
+from stackx.kernel import kernel, leaf
 from stackx.models.planar.collide import GROUND, collide
 
 TOUCH = 0.0  # a contact point whose depth is above this counts as touching
@@ -53,7 +53,7 @@ def observe(x: np.ndarray, y: np.ndarray, angle: np.ndarray, hx: np.ndarray, hy:
     observe_points(body_a, body_b, depth, count, y, hx, hy, inv_mass, dt, last_y, peak, reach, touched, launch, b)
 
 
-@kernel
+@leaf
 def observe_points(body_a: np.ndarray, body_b: np.ndarray, depth: np.ndarray, count: int, y: np.ndarray,
                    hx: np.ndarray, hy: np.ndarray, inv_mass: np.ndarray, dt: float, last_y: np.ndarray,
                    peak: np.ndarray, reach: np.ndarray, touched: np.ndarray, launch: np.ndarray, b: int) -> None:

@@ -52,7 +52,7 @@ from __future__ import annotations
 import numpy as np
 
 from stackx.correct import correct
-from stackx.kernel import kernel
+from stackx.kernel import kernel, leaf
 from stackx.models.planar.collide import collide
 from stackx.models.planar.monitor import observe_points
 
@@ -74,7 +74,7 @@ def contact_workspace(room: int) -> tuple[np.ndarray, np.ndarray]:
     return np.zeros((room, 3), np.int64), np.zeros((room, COLUMNS))
 
 
-@kernel
+@leaf
 def gravity(vy: np.ndarray, inv_mass: np.ndarray, g: float, dt: float) -> None:
     """``vy += g * dt`` for every movable body (static boxes stay still)."""
     for i in range(vy.shape[0]):
@@ -121,7 +121,7 @@ def effective_mass(ima: float, iia: float, rax: float, ray: float, imb: float, i
     return 1.0 / total if total > 0.0 else 0.0
 
 
-@kernel
+@leaf
 def prepare(x: np.ndarray, y: np.ndarray, inv_mass: np.ndarray, inv_inertia: np.ndarray, friction: np.ndarray,
             ids: np.ndarray, table: np.ndarray, count: int) -> None:
     """Anchors, effective normal and tangent masses and friction of every point; impulses set to 0."""
@@ -145,7 +145,7 @@ def prepare(x: np.ndarray, y: np.ndarray, inv_mass: np.ndarray, inv_inertia: np.
         table[k, PT] = 0.0
 
 
-@kernel
+@leaf
 def anchor_locals(x: np.ndarray, y: np.ndarray, angle: np.ndarray, ids: np.ndarray, table: np.ndarray,
                   count: int) -> None:
     """Each point's reference face (normal and a point of its plane) in the frame of the body that owns the
@@ -171,7 +171,7 @@ def anchor_locals(x: np.ndarray, y: np.ndarray, angle: np.ndarray, ids: np.ndarr
         table[k, LQX], table[k, LQY] = c * qx + s * qy, -s * qx + c * qy
 
 
-@kernel
+@leaf
 def relative_velocity(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, ids: np.ndarray, table: np.ndarray, k: int,
                       dx: float, dy: float) -> float:
     """``((v_B + w_B x r_B) - (v_A + w_A x r_A)) . d`` at point ``k`` (m/s)."""
@@ -185,7 +185,7 @@ def relative_velocity(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, ids: np.nda
     return ux * dx + uy * dy
 
 
-@kernel
+@leaf
 def apply_impulse(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, inv_mass: np.ndarray, inv_inertia: np.ndarray,
                   ids: np.ndarray, table: np.ndarray, k: int, px: float, py: float) -> None:
     """The impulse ``(px, py)`` at point ``k`` on body B, and its opposite on body A."""
@@ -200,7 +200,7 @@ def apply_impulse(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, inv_mass: np.nd
         w[a] -= inv_inertia[a] * (table[k, RAX] * py - table[k, RAY] * px)
 
 
-@kernel
+@leaf
 def set_targets(table: np.ndarray, count: int, dt: float) -> None:
     """The slowest normal velocity each point accepts: ``depth/dt`` for a point still apart (a speculative
     point may close its gap within the step, no more), 0 for a touching one (no approach)."""
@@ -209,7 +209,7 @@ def set_targets(table: np.ndarray, count: int, dt: float) -> None:
         table[k, TARGET] = d / dt if d < 0.0 else 0.0
 
 
-@kernel
+@leaf
 def recall(ids: np.ndarray, table: np.ndarray, count: int, keys: np.ndarray, carried: np.ndarray,
            held: int) -> None:
     """Warm start values: each point's impulses from the last step's point with the same ``(A, B, FEATURE)``,
@@ -228,7 +228,7 @@ def recall(ids: np.ndarray, table: np.ndarray, count: int, keys: np.ndarray, car
             i += 1
 
 
-@kernel
+@leaf
 def remember(ids: np.ndarray, table: np.ndarray, count: int, keys: np.ndarray, carried: np.ndarray) -> int:
     """Keep this step's points and impulses for the next (as many as the memory holds); returns how many."""
     held = min(count, keys.shape[0])
@@ -238,7 +238,7 @@ def remember(ids: np.ndarray, table: np.ndarray, count: int, keys: np.ndarray, c
     return held
 
 
-@kernel
+@leaf
 def warm_start(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, inv_mass: np.ndarray, inv_inertia: np.ndarray,
                ids: np.ndarray, table: np.ndarray, count: int) -> None:
     """Apply every point's carried impulses (``PN``, ``PT``) to the velocities."""
@@ -249,7 +249,7 @@ def warm_start(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, inv_mass: np.ndarr
             apply_impulse(vx, vy, w, inv_mass, inv_inertia, ids, table, k, pn * nx - pt * ny, pn * ny + pt * nx)
 
 
-@kernel
+@leaf
 def friction_visit(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, inv_mass: np.ndarray, inv_inertia: np.ndarray,
                    ids: np.ndarray, table: np.ndarray, k: int) -> None:
     """Point ``k``'s tangent total moved towards stopping its sliding, kept within ``mu`` times its normal
@@ -265,7 +265,7 @@ def friction_visit(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, inv_mass: np.n
         table[k, PT] = total
 
 
-@kernel
+@leaf
 def normal_visit(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, inv_mass: np.ndarray, inv_inertia: np.ndarray,
                  ids: np.ndarray, table: np.ndarray, k: int, relaxation: float) -> None:
     """Point ``k``'s normal total moved to meet its target (times ``relaxation``), kept >= 0: the increment
@@ -304,7 +304,7 @@ def two_point_lcp(k11: float, k12: float, k22: float, b1: float, b2: float, pair
     return 0.0, 0.0, False
 
 
-@kernel
+@leaf
 def block_normal(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, inv_mass: np.ndarray, inv_inertia: np.ndarray,
                  ids: np.ndarray, table: np.ndarray, k: int, relaxation: float) -> bool:
     """The normal totals of points ``k`` and ``k + 1`` (one manifold: same bodies, same normal) solved together.
@@ -342,7 +342,7 @@ def block_normal(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, inv_mass: np.nda
     return True
 
 
-@kernel
+@leaf
 def accumulated_iteration(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, inv_mass: np.ndarray,
                           inv_inertia: np.ndarray, ids: np.ndarray, table: np.ndarray, count: int,
                           block: bool, relaxation: float) -> None:
@@ -369,7 +369,7 @@ def accumulated_iteration(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, inv_mas
         k += size
 
 
-@kernel
+@leaf
 def solve_velocities(x: np.ndarray, y: np.ndarray, vx: np.ndarray, vy: np.ndarray, w: np.ndarray,
                      inv_mass: np.ndarray, inv_inertia: np.ndarray, friction: np.ndarray, g: float, dt: float,
                      carry: bool, iterations: int, block: bool, relaxation: float, ids: np.ndarray,
@@ -392,7 +392,7 @@ def solve_velocities(x: np.ndarray, y: np.ndarray, vx: np.ndarray, vy: np.ndarra
     return remember(ids, table, count, keys, carried)
 
 
-@kernel
+@leaf
 def integrate_positions(x: np.ndarray, y: np.ndarray, angle: np.ndarray, vx: np.ndarray, vy: np.ndarray,
                         w: np.ndarray, dt: float) -> None:
     """Move every body with its velocities over ``dt`` (static bodies have none)."""
@@ -402,7 +402,7 @@ def integrate_positions(x: np.ndarray, y: np.ndarray, angle: np.ndarray, vx: np.
         angle[i] += w[i] * dt
 
 
-@kernel
+@leaf
 def correct_positions(x: np.ndarray, y: np.ndarray, inv_mass: np.ndarray, ids: np.ndarray, table: np.ndarray,
                       count: int, slop: float, percent: float, shift: np.ndarray) -> None:
     """The lab's correction on the points of the table (found after the positions moved), in table order.
@@ -433,7 +433,7 @@ def correct_positions(x: np.ndarray, y: np.ndarray, inv_mass: np.ndarray, ids: n
             shift[b, 1] += up * ny
 
 
-@kernel
+@leaf
 def separation_push(x: np.ndarray, y: np.ndarray, angle: np.ndarray, inv_mass: np.ndarray,
                     inv_inertia: np.ndarray, ids: np.ndarray, table: np.ndarray, count: int, slop: float,
                     percent: float, max_correction: float) -> float:

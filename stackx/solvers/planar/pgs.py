@@ -22,7 +22,7 @@ from __future__ import annotations
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, field_validator
 
-from stackx.kernel import kernel, prange
+from stackx.kernel import kernel, leaf, prange
 from stackx.models.planar.monitor import contact_room
 from stackx.models.planar.state import PlanarState
 from stackx.registry import solvers
@@ -47,7 +47,7 @@ class PlanarPGSParams(BaseModel):
     _sequential = field_validator("correction")(sequential_only)
 
 
-@kernel
+@leaf
 def lab_pass(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, inv_mass: np.ndarray, inv_inertia: np.ndarray,
              ids: np.ndarray, table: np.ndarray, count: int) -> None:
     """One pass of per-visit clamped impulses over the overlapping points: stop the approach, then friction
