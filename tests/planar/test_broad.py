@@ -20,12 +20,13 @@ def every_pair(x: np.ndarray, y: np.ndarray, angle: np.ndarray, hx: np.ndarray, 
            np.zeros(room), np.zeros(room, np.int64))
     n = 0
     bodies = len(x)
-    reach_x = [abs(math.cos(a)) * hx[i] + abs(math.sin(a)) * hy[i] for i, a in enumerate(angle)]
-    reach_y = [abs(math.sin(a)) * hx[i] + abs(math.cos(a)) * hy[i] for i, a in enumerate(angle)]
+    cos, sin = np.cos(angle), np.sin(angle)
+    reach_x = [abs(cos[i]) * hx[i] + abs(sin[i]) * hy[i] for i in range(bodies)]
+    reach_y = [abs(sin[i]) * hx[i] + abs(cos[i]) * hy[i] for i in range(bodies)]
     with kernel.compiled(False):
         for i in range(bodies):
             if not static[i] and y[i] - reach_y[i] <= margin:
-                n = ground_points(i, x[i], y[i], angle[i], hx[i], hy[i], margin, n, *out)
+                n = ground_points(i, x[i], y[i], cos[i], sin[i], hx[i], hy[i], margin, n, *out)
         for i in range(bodies):
             for j in range(i + 1, bodies):
                 if static[i] and static[j]:
@@ -33,7 +34,7 @@ def every_pair(x: np.ndarray, y: np.ndarray, angle: np.ndarray, hx: np.ndarray, 
                 if (abs(x[i] - x[j]) > reach_x[i] + reach_x[j] + margin
                         or abs(y[i] - y[j]) > reach_y[i] + reach_y[j] + margin):
                     continue
-                n = box_points(i, j, x, y, angle, hx, hy, margin, n, *out)
+                n = box_points(i, j, x, y, cos, sin, hx, hy, margin, n, *out)
     return n, out
 
 

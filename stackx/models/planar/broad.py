@@ -29,12 +29,13 @@ ROUNDING = 1e-9  # relative widening of each bound: far above float64 rounding, 
 
 
 @leaf
-def bounds(x: np.ndarray, y: np.ndarray, angle: np.ndarray, hx: np.ndarray, hy: np.ndarray, reach_x: np.ndarray,
-           reach_y: np.ndarray) -> None:
-    """Half-sizes of each box's axis-aligned bounding box: ``reach_x = |cos| hx + |sin| hy``, and the same
-    along y."""
-    for i in range(x.shape[0]):
-        c, s = abs(np.cos(angle[i])), abs(np.sin(angle[i]))
+def bounds(angle: np.ndarray, hx: np.ndarray, hy: np.ndarray, cos: np.ndarray, sin: np.ndarray,
+           reach_x: np.ndarray, reach_y: np.ndarray) -> None:
+    """Each box's ``cos`` and ``sin`` of its angle and the half-sizes of its axis-aligned bounding box:
+    ``reach_x = |cos| hx + |sin| hy``, and the same along y."""
+    for i in range(angle.shape[0]):
+        cos[i], sin[i] = np.cos(angle[i]), np.sin(angle[i])
+        c, s = abs(cos[i]), abs(sin[i])
         reach_x[i] = c * hx[i] + s * hy[i]
         reach_y[i] = s * hx[i] + c * hy[i]
 

@@ -77,11 +77,11 @@ def add_point(n: int, a: int, b: int, nx: float, ny: float, px: float, py: float
 
 
 @leaf
-def ground_points(i: int, x: float, y: float, angle: float, hx: float, hy: float, margin: float, n: int,
+def ground_points(i: int, x: float, y: float, c: float, s: float, hx: float, hy: float, margin: float, n: int,
                   body_a: np.ndarray, body_b: np.ndarray, normal: np.ndarray, point: np.ndarray,
                   depths: np.ndarray, features: np.ndarray) -> int:
-    """The (at most two) lowest corners of box ``i`` within ``margin`` of the ground, normal straight up."""
-    c, s = np.cos(angle), np.sin(angle)
+    """The (at most two) lowest corners of box ``i`` (turned by an angle of cosine ``c`` and sine ``s``) within
+    ``margin`` of the ground, normal straight up."""
     first, second = -1, -1
     h1, h2 = np.inf, np.inf
     for corner in range(4):
@@ -105,11 +105,12 @@ def ground_points(i: int, x: float, y: float, angle: float, hx: float, hy: float
 
 
 @leaf
-def box_points(i: int, j: int, x: np.ndarray, y: np.ndarray, angle: np.ndarray, hx: np.ndarray, hy: np.ndarray,
-               margin: float, n: int, body_a: np.ndarray, body_b: np.ndarray, normal: np.ndarray,
+def box_points(i: int, j: int, x: np.ndarray, y: np.ndarray, cos: np.ndarray, sin: np.ndarray, hx: np.ndarray,
+               hy: np.ndarray, margin: float, n: int, body_a: np.ndarray, body_b: np.ndarray, normal: np.ndarray,
                point: np.ndarray, depths: np.ndarray, features: np.ndarray) -> int:
-    """The manifold of boxes ``i`` and ``j`` (normal from i to j): reference face, incident face, clipping."""
-    ci, si, cj, sj = np.cos(angle[i]), np.sin(angle[i]), np.cos(angle[j]), np.sin(angle[j])
+    """The manifold of boxes ``i`` and ``j`` (normal from i to j): reference face, incident face, clipping.
+    ``cos``, ``sin``: of every box's angle, found once a step rather than for every pair."""
+    ci, si, cj, sj = cos[i], sin[i], cos[j], sin[j]
     sep_i, face_i = separation(x[i], y[i], ci, si, hx[i], hy[i], x[j], y[j], cj, sj, hx[j], hy[j])
     if sep_i > margin:
         return n
@@ -170,13 +171,13 @@ def collide(x: np.ndarray, y: np.ndarray, angle: np.ndarray, hx: np.ndarray, hy:
     every pair."""
     bodies = x.shape[0]
     n = 0
-    reach_x = np.empty(bodies)
-    reach_y = np.empty(bodies)
-    bounds(x, y, angle, hx, hy, reach_x, reach_y)
+    cos, sin = np.empty(bodies), np.empty(bodies)
+    reach_x, reach_y = np.empty(bodies), np.empty(bodies)
+    bounds(angle, hx, hy, cos, sin, reach_x, reach_y)
     for i in range(bodies):
         if not static[i] and y[i] - reach_y[i] <= margin:
-            n = ground_points(i, x[i], y[i], angle[i], hx[i], hy[i], margin, n, body_a, body_b, normal, point,
-                              depths, features)
+            n = ground_points(i, x[i], y[i], cos[i], sin[i], hx[i], hy[i], margin, n, body_a, body_b, normal,
+                              point, depths, features)
     keys = np.empty(4 * bodies + 16, np.int64)
     pairs = candidate_pairs(x, y, reach_x, reach_y, static, margin, keys)
     if pairs > keys.shape[0]:
@@ -186,5 +187,5 @@ def collide(x: np.ndarray, y: np.ndarray, angle: np.ndarray, hx: np.ndarray, hy:
         i, j = keys[p] // bodies, keys[p] % bodies
         if abs(x[i] - x[j]) > reach_x[i] + reach_x[j] + margin or abs(y[i] - y[j]) > reach_y[i] + reach_y[j] + margin:
             continue
-        n = box_points(i, j, x, y, angle, hx, hy, margin, n, body_a, body_b, normal, point, depths, features)
+        n = box_points(i, j, x, y, cos, sin, hx, hy, margin, n, body_a, body_b, normal, point, depths, features)
     return n
