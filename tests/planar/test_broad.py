@@ -10,7 +10,7 @@ import pytest
 
 from stackx import kernel
 from stackx.models.planar.broad import candidate_pairs
-from stackx.models.planar.collide import box_points, collide, ground_points
+from stackx.models.planar.collide import box_points, collide, ground_points, shapes
 
 
 def every_pair(x: np.ndarray, y: np.ndarray, angle: np.ndarray, hx: np.ndarray, hy: np.ndarray,
@@ -23,7 +23,9 @@ def every_pair(x: np.ndarray, y: np.ndarray, angle: np.ndarray, hx: np.ndarray, 
     cos, sin = np.cos(angle), np.sin(angle)
     reach_x = [abs(cos[i]) * hx[i] + abs(sin[i]) * hy[i] for i in range(bodies)]
     reach_y = [abs(sin[i]) * hx[i] + abs(cos[i]) * hy[i] for i in range(bodies)]
+    corners, faces = np.empty((bodies, 4, 2)), np.empty((bodies, 4, 4))
     with kernel.compiled(False):
+        shapes(x, y, cos, sin, hx, hy, corners, faces)
         for i in range(bodies):
             if not static[i] and y[i] - reach_y[i] <= margin:
                 n = ground_points(i, x[i], y[i], cos[i], sin[i], hx[i], hy[i], margin, n, *out)
@@ -34,7 +36,7 @@ def every_pair(x: np.ndarray, y: np.ndarray, angle: np.ndarray, hx: np.ndarray, 
                 if (abs(x[i] - x[j]) > reach_x[i] + reach_x[j] + margin
                         or abs(y[i] - y[j]) > reach_y[i] + reach_y[j] + margin):
                     continue
-                n = box_points(i, j, x, y, cos, sin, hx, hy, margin, n, *out)
+                n = box_points(i, j, x, y, corners, faces, margin, n, *out)
     return n, out
 
 

@@ -40,21 +40,35 @@ def face_axis(x: float, y: float, c: float, s: float, hx: float, hy: float, face
     return c * lx - s * ly, s * lx + c * ly, extent, width
 
 
-@kernel
-def separation(xa: float, ya: float, ca: float, sa: float, hxa: float, hya: float,
-               xb: float, yb: float, cb: float, sb: float, hxb: float, hyb: float) -> tuple[float, int]:
+@leaf
+def shapes(x: np.ndarray, y: np.ndarray, cos: np.ndarray, sin: np.ndarray, hx: np.ndarray, hy: np.ndarray,
+           corners: np.ndarray, faces: np.ndarray) -> None:
+    """Every box's corners in the world (``corners[i, corner]``: x, y; corner 0 at ``(+hx, +hy)`` of its own
+    frame, then counter-clockwise) and faces (``faces[i, face]``: ``face_axis``), found once a step: each
+    pair the narrow phase tests reads them instead of turning both boxes again."""
+    for i in range(x.shape[0]):
+        c, s = cos[i], sin[i]
+        for corner in range(4):
+            px = hx[i] if corner == 0 or corner == 3 else -hx[i]
+            py = hy[i] if corner < 2 else -hy[i]
+            corners[i, corner, 0] = x[i] + c * px - s * py
+            corners[i, corner, 1] = y[i] + s * px + c * py
+        for face in range(4):
+            nx, ny, extent, width = face_axis(x[i], y[i], c, s, hx[i], hy[i], face)
+            faces[i, face, 0], faces[i, face, 1], faces[i, face, 2], faces[i, face, 3] = nx, ny, extent, width
+
+
+@leaf
+def separation(a: int, b: int, x: np.ndarray, y: np.ndarray, corners: np.ndarray,
+               faces: np.ndarray) -> tuple[float, int]:
     """The largest separation of box b from a face of box a (negative: the overlap along that face's normal)
     and that face: the deepest corner of b below each face plane of a, best face kept."""
     best, best_face = -np.inf, 0
     for face in range(4):
-        nx, ny, extent, _ = face_axis(xa, ya, ca, sa, hxa, hya, face)
+        nx, ny, extent = faces[a, face, 0], faces[a, face, 1], faces[a, face, 2]
         low = np.inf
         for corner in range(4):
-            px = hxb if corner == 0 or corner == 3 else -hxb
-            py = hyb if corner < 2 else -hyb
-            cx = xb + cb * px - sb * py
-            cy = yb + sb * px + cb * py
-            d = (cx - xa) * nx + (cy - ya) * ny - extent
+            d = (corners[b, corner, 0] - x[a]) * nx + (corners[b, corner, 1] - y[a]) * ny - extent
             if d < low:
                 low = d
         if low > best:
@@ -105,31 +119,28 @@ def ground_points(i: int, x: float, y: float, c: float, s: float, hx: float, hy:
 
 
 @leaf
-def box_points(i: int, j: int, x: np.ndarray, y: np.ndarray, cos: np.ndarray, sin: np.ndarray, hx: np.ndarray,
-               hy: np.ndarray, margin: float, n: int, body_a: np.ndarray, body_b: np.ndarray, normal: np.ndarray,
+def box_points(i: int, j: int, x: np.ndarray, y: np.ndarray, corners: np.ndarray, faces: np.ndarray,
+               margin: float, n: int, body_a: np.ndarray, body_b: np.ndarray, normal: np.ndarray,
                point: np.ndarray, depths: np.ndarray, features: np.ndarray) -> int:
-    """The manifold of boxes ``i`` and ``j`` (normal from i to j): reference face, incident face, clipping.
-    ``cos``, ``sin``: of every box's angle, found once a step rather than for every pair."""
-    ci, si, cj, sj = cos[i], sin[i], cos[j], sin[j]
-    sep_i, face_i = separation(x[i], y[i], ci, si, hx[i], hy[i], x[j], y[j], cj, sj, hx[j], hy[j])
+    """The manifold of boxes ``i`` and ``j`` (normal from i to j): reference face, incident face, clipping;
+    the boxes' corners and faces from ``shapes``."""
+    sep_i, face_i = separation(i, j, x, y, corners, faces)
     if sep_i > margin:
         return n
-    sep_j, face_j = separation(x[j], y[j], cj, sj, hx[j], hy[j], x[i], y[i], ci, si, hx[i], hy[i])
+    sep_j, face_j = separation(j, i, x, y, corners, faces)
     if sep_j > margin:
         return n
     flip = sep_j > REFERENCE_BIAS * sep_i + ABSOLUTE_BIAS
     r, k = (j, i) if flip else (i, j)  # reference and incident box
     face = face_j if flip else face_i
-    cr, sr, ck, sk = (cj, sj, ci, si) if flip else (ci, si, cj, sj)
-    nx, ny, extent, width = face_axis(x[r], y[r], cr, sr, hx[r], hy[r], face)
+    nx, ny, extent, width = faces[r, face, 0], faces[r, face, 1], faces[r, face, 2], faces[r, face, 3]
     tx, ty = -ny, nx
     incident, lowest = 0, np.inf
     for f in range(4):
-        fx, fy, _, _ = face_axis(x[k], y[k], ck, sk, hx[k], hy[k], f)
-        d = fx * nx + fy * ny
+        d = faces[k, f, 0] * nx + faces[k, f, 1] * ny
         if d < lowest:
             incident, lowest = f, d
-    fx, fy, e, w = face_axis(x[k], y[k], ck, sk, hx[k], hy[k], incident)
+    fx, fy, e, w = faces[k, incident, 0], faces[k, incident, 1], faces[k, incident, 2], faces[k, incident, 3]
     gx, gy = -fy, fx
     e0x, e0y = x[k] + fx * e + gx * w, y[k] + fy * e + gy * w  # the incident edge's two ends
     e1x, e1y = x[k] + fx * e - gx * w, y[k] + fy * e - gy * w
@@ -174,6 +185,8 @@ def collide(x: np.ndarray, y: np.ndarray, angle: np.ndarray, hx: np.ndarray, hy:
     cos, sin = np.empty(bodies), np.empty(bodies)
     reach_x, reach_y = np.empty(bodies), np.empty(bodies)
     bounds(angle, hx, hy, cos, sin, reach_x, reach_y)
+    corners, faces = np.empty((bodies, 4, 2)), np.empty((bodies, 4, 4))
+    shapes(x, y, cos, sin, hx, hy, corners, faces)
     for i in range(bodies):
         if not static[i] and y[i] - reach_y[i] <= margin:
             n = ground_points(i, x[i], y[i], cos[i], sin[i], hx[i], hy[i], margin, n, body_a, body_b, normal,
@@ -187,5 +200,5 @@ def collide(x: np.ndarray, y: np.ndarray, angle: np.ndarray, hx: np.ndarray, hy:
         i, j = keys[p] // bodies, keys[p] % bodies
         if abs(x[i] - x[j]) > reach_x[i] + reach_x[j] + margin or abs(y[i] - y[j]) > reach_y[i] + reach_y[j] + margin:
             continue
-        n = box_points(i, j, x, y, cos, sin, hx, hy, margin, n, body_a, body_b, normal, point, depths, features)
+        n = box_points(i, j, x, y, corners, faces, margin, n, body_a, body_b, normal, point, depths, features)
     return n
