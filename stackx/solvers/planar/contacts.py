@@ -17,7 +17,8 @@ Functions, in the order a step uses them:
   and the next step (which starts at the same positions): one collision test a step, not one per use;
 - ``prepare(...)``: per point the anchors ``r_A``, ``r_B`` (the point minus each centre), the effective normal
   and tangent masses ``k = 1 / (m_A^-1 + m_B^-1 + I_A^-1 (r_A x d)^2 + I_B^-1 (r_B x d)^2)`` for ``d = n, t``
-  and the point's friction (``sqrt(mu_A mu_B)``; against the ground the box's own ``mu``);
+  and the point's friction (``sqrt(mu_A mu_B)``; against the ground the box's own ``mu``); per two-point
+  manifold its normal mass matrix (``block_matrix``): what the passes read, found once a step;
 - ``anchor_locals(...)``: each point's face plane and touching corner in the frames of the bodies that carry
   them, so a position stage can measure the separation again after the bodies moved and turned (NGS);
 - ``relative_velocity(...)``: the relative velocity of a point along a direction;
@@ -63,7 +64,10 @@ A, B, FEATURE = 0, 1, 2
 # incident body's frame (anchor_locals)
 NX, NY, PX, PY, DEPTH, RAX, RAY, RBX, RBY, KN, KT, MU, TARGET, PN, PT = range(15)
 LNX, LNY, LFX, LFY, LQX, LQY = range(15, 21)
-COLUMNS = 21
+# on the first point of a two-point manifold (prepare): its 2 x 2 normal mass matrix K and whether K is
+# conditioned well enough for the block solve (1.0) or not (0.0): fixed for the step, so found once
+K11, K12, K22, CONDITIONED = range(21, 25)
+COLUMNS = 25
 FLIPPED = 64  # collide's features from 64 up: the reference face is on body B
 BLOCK_CONDITION = 1000.0  # largest condition (k11^2 / det) a two-point block is solved at (Box2D 2.x's)
 
@@ -143,6 +147,34 @@ def prepare(x: np.ndarray, y: np.ndarray, inv_mass: np.ndarray, inv_inertia: np.
         table[k, TARGET] = 0.0
         table[k, PN] = 0.0
         table[k, PT] = 0.0
+    k = 0
+    while k < count:
+        if k + 1 < count and ids[k + 1, A] == ids[k, A] and ids[k + 1, B] == ids[k, B]:
+            block_matrix(inv_mass, inv_inertia, ids, table, k)
+            k += 2
+        else:
+            k += 1
+
+
+@leaf
+def block_matrix(inv_mass: np.ndarray, inv_inertia: np.ndarray, ids: np.ndarray, table: np.ndarray,
+                 k: int) -> None:
+    """The normal mass matrix ``K = [[k11, k12], [k12, k22]]`` of the two-point manifold at ``k`` (how much a
+    unit normal impulse at one point opens each), into its first row, and whether ``k11^2 < BLOCK_CONDITION
+    det K`` (Box2D 2.x's test before it inverts ``K``). It depends on the anchors and masses only, so the
+    passes read it instead of finding it again at every visit (Box2D 2.x keeps it in its velocity
+    constraint for the same reason)."""
+    nx, ny = table[k, NX], table[k, NY]
+    j = k + 1
+    a, b = ids[k, A], ids[k, B]
+    ima, iia = (inv_mass[a], inv_inertia[a]) if a >= 0 else (0.0, 0.0)
+    k11, k22 = 1.0 / table[k, KN], 1.0 / table[j, KN]
+    ca1, ca2 = table[k, RAX] * ny - table[k, RAY] * nx, table[j, RAX] * ny - table[j, RAY] * nx  # r x n
+    cb1, cb2 = table[k, RBX] * ny - table[k, RBY] * nx, table[j, RBX] * ny - table[j, RBY] * nx
+    k12 = ima + inv_mass[b] + iia * ca1 * ca2 + inv_inertia[b] * cb1 * cb2
+    det = k11 * k22 - k12 * k12
+    table[k, K11], table[k, K12], table[k, K22] = k11, k12, k22
+    table[k, CONDITIONED] = 1.0 if k11 * k11 < BLOCK_CONDITION * det else 0.0
 
 
 @leaf
@@ -317,17 +349,11 @@ def block_normal(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, inv_mass: np.nda
     done) when ``K`` is too ill-conditioned to invert (the two points nearly on one line through the bodies'
     lever arms) or no case fits in rounding; the caller then visits the points one by one.
     """
+    if table[k, CONDITIONED] == 0.0:
+        return False
     nx, ny = table[k, NX], table[k, NY]
     j = k + 1
-    a, b = ids[k, A], ids[k, B]
-    ima, iia = (inv_mass[a], inv_inertia[a]) if a >= 0 else (0.0, 0.0)
-    k11, k22 = 1.0 / table[k, KN], 1.0 / table[j, KN]
-    ca1, ca2 = table[k, RAX] * ny - table[k, RAY] * nx, table[j, RAX] * ny - table[j, RAY] * nx  # r x n
-    cb1, cb2 = table[k, RBX] * ny - table[k, RBY] * nx, table[j, RBX] * ny - table[j, RBY] * nx
-    k12 = ima + inv_mass[b] + iia * ca1 * ca2 + inv_inertia[b] * cb1 * cb2
-    det = k11 * k22 - k12 * k12
-    if not k11 * k11 < BLOCK_CONDITION * det:
-        return False
+    k11, k12, k22 = table[k, K11], table[k, K12], table[k, K22]  # from prepare (block_matrix)
     a1, a2 = table[k, PN], table[j, PN]
     b1 = relative_velocity(vx, vy, w, ids, table, k, nx, ny) - table[k, TARGET] - (k11 * a1 + k12 * a2)
     b2 = relative_velocity(vx, vy, w, ids, table, j, nx, ny) - table[j, TARGET] - (k12 * a1 + k22 * a2)
