@@ -34,7 +34,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from stackx.kernel import kernel, prange
+from stackx.kernel import kernel, leaf, prange
 from stackx.models.planar.monitor import contact_room
 from stackx.models.planar.state import PlanarState
 from stackx.registry import solvers
@@ -57,7 +57,7 @@ class PlanarXPBDParams(XPBDParams):
               "closing faster than this per step reaches its neighbour unseen and is pushed out a step late")
 
 
-@kernel
+@leaf
 def current_anchors(ids: np.ndarray, table: np.ndarray, since: np.ndarray, k: int, now: np.ndarray) -> None:
     """Point ``k``'s anchors as its bodies have turned, into ``now`` (a table whose anchor columns follow
     the bodies, so the shared impulse and velocity stages act at the points where they are now)."""
@@ -68,7 +68,7 @@ def current_anchors(ids: np.ndarray, table: np.ndarray, since: np.ndarray, k: in
         now[k, RAX], now[k, RAY] = anchor(table, since, a, k, RAX)
 
 
-@kernel
+@leaf
 def point_mass(ids: np.ndarray, now: np.ndarray, k: int, inv_mass: np.ndarray, inv_inertia: np.ndarray,
                dx: float, dy: float) -> float:
     """``1 / w`` of point ``k`` along ``(dx, dy)`` at its current anchors: the generalized mass."""
@@ -78,7 +78,7 @@ def point_mass(ids: np.ndarray, now: np.ndarray, k: int, inv_mass: np.ndarray, i
                           now[k, RBY], dx, dy)
 
 
-@kernel
+@leaf
 def shove(x: np.ndarray, y: np.ndarray, angle: np.ndarray, inv_mass: np.ndarray, inv_inertia: np.ndarray,
           ids: np.ndarray, now: np.ndarray, k: int, px: float, py: float, start: np.ndarray,
           since: np.ndarray) -> None:
@@ -90,7 +90,7 @@ def shove(x: np.ndarray, y: np.ndarray, angle: np.ndarray, inv_mass: np.ndarray,
         moved_body(x, y, angle, start, since, ids[k, A])
 
 
-@kernel
+@leaf
 def slip(ids: np.ndarray, table: np.ndarray, since: np.ndarray, before: np.ndarray, k: int) -> float:
     """How far the anchored point of B has slid along the tangent relative to A's since the substep began."""
     a, b = ids[k, A], ids[k, B]
@@ -119,7 +119,7 @@ def pair_solve(k11: float, k12: float, k22: float, s1: float, s2: float) -> tupl
     return l1, max(-(s2 + k12 * l1) / k22, 0.0)
 
 
-@kernel
+@leaf
 def coupling(ids: np.ndarray, now: np.ndarray, k: int, j: int, inv_mass: np.ndarray, inv_inertia: np.ndarray,
              dx: float, dy: float) -> float:
     """How far a unit impulse along ``(dx, dy)`` at point ``j`` opens point ``k`` of the same two bodies
@@ -132,7 +132,7 @@ def coupling(ids: np.ndarray, now: np.ndarray, k: int, j: int, inv_mass: np.ndar
     return out
 
 
-@kernel
+@leaf
 def normal_impulses(ids: np.ndarray, now: np.ndarray, start: int, end: int, inv_mass: np.ndarray,
                     inv_inertia: np.ndarray, s1: float, s2: float, soft: float) -> tuple[float, float]:
     """Normal impulses of the manifold's one or two points that bring ``s`` (separations, or normal
@@ -147,7 +147,7 @@ def normal_impulses(ids: np.ndarray, now: np.ndarray, start: int, end: int, inv_
     return pair_solve(k11, k12, k22, s1, s2)
 
 
-@kernel
+@leaf
 def project(x: np.ndarray, y: np.ndarray, angle: np.ndarray, inv_mass: np.ndarray, inv_inertia: np.ndarray,
             ids: np.ndarray, table: np.ndarray, count: int, base: np.ndarray, start: np.ndarray,
             since: np.ndarray, before: np.ndarray, now: np.ndarray, stiffness: float) -> None:
@@ -185,7 +185,7 @@ def project(x: np.ndarray, y: np.ndarray, angle: np.ndarray, inv_mass: np.ndarra
         first = end
 
 
-@kernel
+@leaf
 def derive_velocities(x: np.ndarray, y: np.ndarray, angle: np.ndarray, vx: np.ndarray, vy: np.ndarray,
                       w: np.ndarray, inv_mass: np.ndarray, poses: np.ndarray, h: float) -> None:
     """Each movable box's velocities are what it did over the substep (from ``poses``: x, y, angle)."""
@@ -196,7 +196,7 @@ def derive_velocities(x: np.ndarray, y: np.ndarray, angle: np.ndarray, vx: np.nd
             w[i] = (angle[i] - poses[i, 2]) / h
 
 
-@kernel
+@leaf
 def velocity_pass(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, inv_mass: np.ndarray, inv_inertia: np.ndarray,
                   ids: np.ndarray, table: np.ndarray, count: int, since: np.ndarray, now: np.ndarray,
                   h: float) -> None:
