@@ -44,7 +44,7 @@ def test_points_found_within_a_margin_give_the_monitors_of_touching_points_alone
 
     # made with one box sunk 2 cm into the ground, one 1 cm above it and one tilted clear of both; then every
     # box rises 1 cm: the first is sunk 1 cm, the others are within 10 cm of something but touch nothing
-    s = _state([(0.0, 0.48, 0.0), (0.3, 1.49, 0.0), (1.3, 0.51, 0.2)])
+    s = _state([(0.0, 0.48, 0.0), (0.3, 1.49, 0.0), (2.0, 0.62, 0.2)])
     s.y[0] += 0.01
     alone, within = s.copy(), s.copy()
     observe(s.x[0], s.y[0], s.angle[0], s.hx[0], s.hy[0], s.inv_mass[0], 0.1, *alone.monitors(), 0)
@@ -57,4 +57,5 @@ def test_points_found_within_a_margin_give_the_monitors_of_touching_points_alone
                    *within.monitors(), 0)
     for name in PlanarState.MONITORS:
         np.testing.assert_array_equal(getattr(within, name), getattr(alone, name), err_msg=name)
+    assert alone.touched.tolist() == [[True, False, False]]
     assert alone.launch[0] == pytest.approx(0.1)  # the sunk box touched and rose 1 cm in 0.1 s
