@@ -17,10 +17,13 @@ pyramids of 10, 20, 30, 40 and 60 rows (5 cm apart in a row, the ``pyramid`` sce
 The engines get the same boxes (mass and moment of inertia from the state), and the ground is a static box
 whose top is y = 0; Box2D mixes frictions as ``sqrt(a b)`` and pymunk as ``a b``, so each is given what makes
 every contact's coefficient the box's. Each sample starts from the same fresh state; implementations take
-turns (``benchmarks.timing.interleaved``) and medians are compared. Printed: the µs per step, the ratios of
-the targets, the batched figure (``--batch`` rows of pyramid-20 stepped by one stackx call, on every thread
-numba has, against Box2D stepping as many worlds one call each) and, per subject, the exponent of a
-least-squares fit of cost against contact points over the pyramids of 10, 20, 40 and 60 rows (1 is linear).
+turns (``benchmarks.timing.interleaved``) and medians are compared. Every subject of the per-pile table runs
+on one thread, so it is timed in the process's CPU time (``time.process_time``), which load from other
+processes on the machine does not inflate; the batched figure uses threads and is wall time. Printed: the µs
+per step, the ratios of the targets, the batched figure (``--batch`` rows of pyramid-20 stepped by one stackx
+call, on every thread numba has, against Box2D stepping as many worlds one call each) and, per subject, the
+exponent of a least-squares fit of cost against contact points over the pyramids of 10, 20, 40 and 60 rows
+(1 is linear).
 The drift of each pile (largest sideways motion and turn of a box over the timed steps) goes to the JSON
 file, so a fast subject that lets a pile fall can be told.
 """
@@ -30,6 +33,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import time
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -276,7 +280,7 @@ def time_scene(initial: Any, steps: int, repeats: int, exact: bool, console: Any
             console.print(f"[yellow]{name} left out: {type(exc).__name__}: {exc}[/yellow]")
             del subjects[name]
     samples: dict[str, Sample] = interleaved({n: (lambda s=s: s.prepare(steps), steps) for n, s in subjects.items()},
-                                             repeats)
+                                             repeats, time.process_time)
     return Timed({n: s.per_unit * 1e6 for n, s in samples.items()}, {n: subjects[n].motion() for n in samples})
 
 
@@ -308,7 +312,7 @@ def run(json_path: Path, steps: int, repeats: int, batch: int, exact_boxes: int)
         console.print(f"timing {name}: {initial.bodies} boxes, {points[name]} contact points")
         timed[name] = time_scene(initial, steps, repeats, initial.bodies <= exact_boxes, console)
     names = list(dict.fromkeys(n for t in timed.values() for n in t.us))
-    table = Table(title=f"µs per step (median of {repeats} samples of {steps} steps; stackx compiled, one thread)")
+    table = Table(title=f"CPU µs per step (median of {repeats} samples of {steps} steps; stackx compiled, one thread)")
     table.add_column("pile")
     for n in names:
         table.add_column(n, justify="right")
