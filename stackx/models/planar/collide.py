@@ -59,10 +59,12 @@ def shapes(x: np.ndarray, y: np.ndarray, cos: np.ndarray, sin: np.ndarray, hx: n
 
 
 @leaf
-def separation(a: int, b: int, x: np.ndarray, y: np.ndarray, corners: np.ndarray,
-               faces: np.ndarray) -> tuple[float, int]:
+def separation(a: int, b: int, x: np.ndarray, y: np.ndarray, corners: np.ndarray, faces: np.ndarray,
+               margin: float) -> tuple[float, int]:
     """The largest separation of box b from a face of box a (negative: the overlap along that face's normal)
-    and that face: the deepest corner of b below each face plane of a, best face kept."""
+    and that face: the deepest corner of b below each face plane of a, best face kept. The first face that
+    separates them by more than ``margin`` is returned at once: the pair has no contact, whichever face
+    separates most."""
     best, best_face = -np.inf, 0
     for face in range(4):
         nx, ny, extent = faces[a, face, 0], faces[a, face, 1], faces[a, face, 2]
@@ -71,6 +73,8 @@ def separation(a: int, b: int, x: np.ndarray, y: np.ndarray, corners: np.ndarray
             d = (corners[b, corner, 0] - x[a]) * nx + (corners[b, corner, 1] - y[a]) * ny - extent
             if d < low:
                 low = d
+        if low > margin:
+            return low, face
         if low > best:
             best, best_face = low, face
     return best, best_face
@@ -124,10 +128,10 @@ def box_points(i: int, j: int, x: np.ndarray, y: np.ndarray, corners: np.ndarray
                point: np.ndarray, depths: np.ndarray, features: np.ndarray) -> int:
     """The manifold of boxes ``i`` and ``j`` (normal from i to j): reference face, incident face, clipping;
     the boxes' corners and faces from ``shapes``."""
-    sep_i, face_i = separation(i, j, x, y, corners, faces)
+    sep_i, face_i = separation(i, j, x, y, corners, faces, margin)
     if sep_i > margin:
         return n
-    sep_j, face_j = separation(j, i, x, y, corners, faces)
+    sep_j, face_j = separation(j, i, x, y, corners, faces, margin)
     if sep_j > margin:
         return n
     flip = sep_j > REFERENCE_BIAS * sep_i + ABSOLUTE_BIAS
