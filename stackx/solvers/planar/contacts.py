@@ -233,6 +233,36 @@ def apply_impulse(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, inv_mass: np.nd
 
 
 @leaf
+def manifold_velocity(vax: float, vay: float, wa: float, vbx: float, vby: float, wb: float, grounded: bool,
+                      table: np.ndarray, k: int, dx: float, dy: float) -> float:
+    """``relative_velocity`` from a manifold's two body velocities held in locals (``grounded``: A is the
+    ground), the same arithmetic in the same order, so the same number: a pass that visits a manifold's points
+    one after the other keeps its bodies' velocities in registers instead of reading them back each visit."""
+    ux = vbx - wb * table[k, RBY]
+    uy = vby + wb * table[k, RBX]
+    if not grounded:
+        ux -= vax - wa * table[k, RAY]
+        uy -= vay + wa * table[k, RAX]
+    return ux * dx + uy * dy
+
+
+@leaf
+def manifold_impulse(vax: float, vay: float, wa: float, vbx: float, vby: float, wb: float, grounded: bool,
+                     ima: float, iia: float, imb: float, iib: float, table: np.ndarray, k: int, px: float,
+                     py: float) -> tuple[float, float, float, float, float, float]:
+    """``apply_impulse`` on a manifold's two body velocities held in locals: the six velocities after the
+    impulse ``(px, py)`` at point ``k`` on B and its opposite on A (A's unchanged when ``grounded``)."""
+    vbx += imb * px
+    vby += imb * py
+    wb += iib * (table[k, RBX] * py - table[k, RBY] * px)
+    if not grounded:
+        vax -= ima * px
+        vay -= ima * py
+        wa -= iia * (table[k, RAX] * py - table[k, RAY] * px)
+    return vax, vay, wa, vbx, vby, wb
+
+
+@leaf
 def set_targets(table: np.ndarray, count: int, dt: float) -> None:
     """The slowest normal velocity each point accepts: ``depth/dt`` for a point still apart (a speculative
     point may close its gap within the step, no more), 0 for a touching one (no approach)."""
@@ -282,34 +312,72 @@ def warm_start(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, inv_mass: np.ndarr
 
 
 @leaf
-def friction_visit(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, inv_mass: np.ndarray, inv_inertia: np.ndarray,
-                   ids: np.ndarray, table: np.ndarray, k: int) -> None:
+def friction_step(vax: float, vay: float, wa: float, vbx: float, vby: float, wb: float, grounded: bool,
+                  ima: float, iia: float, imb: float, iib: float, table: np.ndarray,
+                  k: int) -> tuple[float, float, float, float, float, float]:
     """Point ``k``'s tangent total moved towards stopping its sliding, kept within ``mu`` times its normal
-    total so far: a point never holds more sideways than it is pressed."""
+    total so far: a point never holds more sideways than it is pressed. On a manifold's two body velocities
+    held in locals (``manifold_velocity``); returns them after the visit."""
     nx, ny = table[k, NX], table[k, NY]
     limit = table[k, MU] * table[k, PN]
     old = table[k, PT]
-    total = old - table[k, KT] * relative_velocity(vx, vy, w, ids, table, k, -ny, nx)
+    total = old - table[k, KT] * manifold_velocity(vax, vay, wa, vbx, vby, wb, grounded, table, k, -ny, nx)
     total = min(max(total, -limit), limit)
     if total != old:
         step = total - old
-        apply_impulse(vx, vy, w, inv_mass, inv_inertia, ids, table, k, -step * ny, step * nx)
         table[k, PT] = total
+        return manifold_impulse(vax, vay, wa, vbx, vby, wb, grounded, ima, iia, imb, iib, table, k, -step * ny,
+                                step * nx)
+    return vax, vay, wa, vbx, vby, wb
+
+
+@leaf
+def normal_step(vax: float, vay: float, wa: float, vbx: float, vby: float, wb: float, grounded: bool,
+                ima: float, iia: float, imb: float, iib: float, table: np.ndarray, k: int,
+                relaxation: float) -> tuple[float, float, float, float, float, float]:
+    """Point ``k``'s normal total moved to meet its target (times ``relaxation``), kept >= 0: the increment
+    may be negative (an earlier visit pushed too hard), only the total may not pull. On a manifold's two body
+    velocities held in locals; returns them after the visit."""
+    nx, ny = table[k, NX], table[k, NY]
+    old = table[k, PN]
+    gap = table[k, TARGET] - manifold_velocity(vax, vay, wa, vbx, vby, wb, grounded, table, k, nx, ny)
+    total = max(old + relaxation * table[k, KN] * gap, 0.0)
+    if total != old:
+        step = total - old
+        table[k, PN] = total
+        return manifold_impulse(vax, vay, wa, vbx, vby, wb, grounded, ima, iia, imb, iib, table, k, step * nx,
+                                step * ny)
+    return vax, vay, wa, vbx, vby, wb
+
+
+@leaf
+def friction_visit(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, inv_mass: np.ndarray, inv_inertia: np.ndarray,
+                   ids: np.ndarray, table: np.ndarray, k: int) -> None:
+    """``friction_step`` on the bodies' velocity arrays."""
+    a, b = ids[k, A], ids[k, B]
+    grounded = a < 0
+    vax, vay, wa, ima, iia = 0.0, 0.0, 0.0, 0.0, 0.0
+    if not grounded:
+        vax, vay, wa, ima, iia = vx[a], vy[a], w[a], inv_mass[a], inv_inertia[a]
+    vax, vay, wa, vx[b], vy[b], w[b] = friction_step(vax, vay, wa, vx[b], vy[b], w[b], grounded, ima, iia,
+                                                     inv_mass[b], inv_inertia[b], table, k)
+    if not grounded:
+        vx[a], vy[a], w[a] = vax, vay, wa
 
 
 @leaf
 def normal_visit(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, inv_mass: np.ndarray, inv_inertia: np.ndarray,
                  ids: np.ndarray, table: np.ndarray, k: int, relaxation: float) -> None:
-    """Point ``k``'s normal total moved to meet its target (times ``relaxation``), kept >= 0: the increment
-    may be negative (an earlier visit pushed too hard), only the total may not pull."""
-    nx, ny = table[k, NX], table[k, NY]
-    old = table[k, PN]
-    gap = table[k, TARGET] - relative_velocity(vx, vy, w, ids, table, k, nx, ny)
-    total = max(old + relaxation * table[k, KN] * gap, 0.0)
-    if total != old:
-        step = total - old
-        apply_impulse(vx, vy, w, inv_mass, inv_inertia, ids, table, k, step * nx, step * ny)
-        table[k, PN] = total
+    """``normal_step`` on the bodies' velocity arrays."""
+    a, b = ids[k, A], ids[k, B]
+    grounded = a < 0
+    vax, vay, wa, ima, iia = 0.0, 0.0, 0.0, 0.0, 0.0
+    if not grounded:
+        vax, vay, wa, ima, iia = vx[a], vy[a], w[a], inv_mass[a], inv_inertia[a]
+    vax, vay, wa, vx[b], vy[b], w[b] = normal_step(vax, vay, wa, vx[b], vy[b], w[b], grounded, ima, iia,
+                                                   inv_mass[b], inv_inertia[b], table, k, relaxation)
+    if not grounded:
+        vx[a], vy[a], w[a] = vax, vay, wa
 
 
 @kernel
@@ -337,35 +405,57 @@ def two_point_lcp(k11: float, k12: float, k22: float, b1: float, b2: float, pair
 
 
 @leaf
-def block_normal(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, inv_mass: np.ndarray, inv_inertia: np.ndarray,
-                 ids: np.ndarray, table: np.ndarray, k: int, relaxation: float) -> bool:
+def block_step(vax: float, vay: float, wa: float, vbx: float, vby: float, wb: float, grounded: bool,
+               ima: float, iia: float, imb: float, iib: float, table: np.ndarray, k: int,
+               relaxation: float) -> tuple[bool, float, float, float, float, float, float]:
     """The normal totals of points ``k`` and ``k + 1`` (one manifold: same bodies, same normal) solved together.
 
     The two points' complementarity problem (``two_point_lcp``, ``K`` the 2 x 2 normal mass matrix) is solved
     for the totals, and the change from the current totals is applied.
     A box resting flat then has its load shared by both corners as the exact solve shares it, where visiting
     the corners one after the other lets the first take too much and the box rock. With ``relaxation`` w the
-    totals move ``w`` times the way to that answer (kept >= 0). Returns False (nothing
-    done) when ``K`` is too ill-conditioned to invert (the two points nearly on one line through the bodies'
-    lever arms) or no case fits in rounding; the caller then visits the points one by one.
+    totals move ``w`` times the way to that answer (kept >= 0). On a manifold's two body velocities held in
+    locals: returns whether it was solved, and the velocities after. Not solved (nothing done) when ``K`` is
+    too ill-conditioned to invert (the two points nearly on one line through the bodies' lever arms) or no
+    case fits in rounding; the caller then visits the points one by one.
     """
     if table[k, CONDITIONED] == 0.0:
-        return False
+        return False, vax, vay, wa, vbx, vby, wb
     nx, ny = table[k, NX], table[k, NY]
     j = k + 1
     k11, k12, k22 = table[k, K11], table[k, K12], table[k, K22]  # from prepare (block_matrix)
     a1, a2 = table[k, PN], table[j, PN]
-    b1 = relative_velocity(vx, vy, w, ids, table, k, nx, ny) - table[k, TARGET] - (k11 * a1 + k12 * a2)
-    b2 = relative_velocity(vx, vy, w, ids, table, j, nx, ny) - table[j, TARGET] - (k12 * a1 + k22 * a2)
+    b1 = manifold_velocity(vax, vay, wa, vbx, vby, wb, grounded, table, k, nx, ny) - table[k, TARGET] - (
+        k11 * a1 + k12 * a2)
+    b2 = manifold_velocity(vax, vay, wa, vbx, vby, wb, grounded, table, j, nx, ny) - table[j, TARGET] - (
+        k12 * a1 + k22 * a2)
     x1, x2, found = two_point_lcp(k11, k12, k22, b1, b2, True)
     if not found:
-        return False
+        return False, vax, vay, wa, vbx, vby, wb
     x1, x2 = max(a1 + relaxation * (x1 - a1), 0.0), max(a2 + relaxation * (x2 - a2), 0.0)
     d1, d2 = x1 - a1, x2 - a2
-    apply_impulse(vx, vy, w, inv_mass, inv_inertia, ids, table, k, d1 * nx, d1 * ny)
-    apply_impulse(vx, vy, w, inv_mass, inv_inertia, ids, table, j, d2 * nx, d2 * ny)
+    vax, vay, wa, vbx, vby, wb = manifold_impulse(vax, vay, wa, vbx, vby, wb, grounded, ima, iia, imb, iib, table,
+                                                  k, d1 * nx, d1 * ny)
+    vax, vay, wa, vbx, vby, wb = manifold_impulse(vax, vay, wa, vbx, vby, wb, grounded, ima, iia, imb, iib, table,
+                                                  j, d2 * nx, d2 * ny)
     table[k, PN], table[j, PN] = x1, x2
-    return True
+    return True, vax, vay, wa, vbx, vby, wb
+
+
+@leaf
+def block_normal(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, inv_mass: np.ndarray, inv_inertia: np.ndarray,
+                 ids: np.ndarray, table: np.ndarray, k: int, relaxation: float) -> bool:
+    """``block_step`` on the bodies' velocity arrays: whether it was solved."""
+    a, b = ids[k, A], ids[k, B]
+    grounded = a < 0
+    vax, vay, wa, ima, iia = 0.0, 0.0, 0.0, 0.0, 0.0
+    if not grounded:
+        vax, vay, wa, ima, iia = vx[a], vy[a], w[a], inv_mass[a], inv_inertia[a]
+    solved, vax, vay, wa, vx[b], vy[b], w[b] = block_step(vax, vay, wa, vx[b], vy[b], w[b], grounded, ima, iia,
+                                                          inv_mass[b], inv_inertia[b], table, k, relaxation)
+    if not grounded:
+        vx[a], vy[a], w[a] = vax, vay, wa
+    return solved
 
 
 @leaf
@@ -386,12 +476,26 @@ def accumulated_iteration(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, inv_mas
     k = 0
     while k < count:
         size = 2 if k + 1 < count and ids[k + 1, A] == ids[k, A] and ids[k + 1, B] == ids[k, B] else 1
-        if not (block and size == 2 and block_normal(vx, vy, w, inv_mass, inv_inertia, ids, table, k,
-                                                     relaxation)):
+        a, b = ids[k, A], ids[k, B]
+        grounded = a < 0  # the manifold's two bodies' velocities held in locals over its points
+        vax, vay, wa, ima, iia = 0.0, 0.0, 0.0, 0.0, 0.0
+        if not grounded:
+            vax, vay, wa, ima, iia = vx[a], vy[a], w[a], inv_mass[a], inv_inertia[a]
+        vbx, vby, wb, imb, iib = vx[b], vy[b], w[b], inv_mass[b], inv_inertia[b]
+        solved = False
+        if block and size == 2:
+            solved, vax, vay, wa, vbx, vby, wb = block_step(vax, vay, wa, vbx, vby, wb, grounded, ima, iia, imb,
+                                                            iib, table, k, relaxation)
+        if not solved:
             for i in range(k, k + size):
-                normal_visit(vx, vy, w, inv_mass, inv_inertia, ids, table, i, relaxation)
+                vax, vay, wa, vbx, vby, wb = normal_step(vax, vay, wa, vbx, vby, wb, grounded, ima, iia, imb, iib,
+                                                         table, i, relaxation)
         for i in range(k, k + size):
-            friction_visit(vx, vy, w, inv_mass, inv_inertia, ids, table, i)
+            vax, vay, wa, vbx, vby, wb = friction_step(vax, vay, wa, vbx, vby, wb, grounded, ima, iia, imb, iib,
+                                                       table, i)
+        if not grounded:
+            vx[a], vy[a], w[a] = vax, vay, wa
+        vx[b], vy[b], w[b] = vbx, vby, wb
         k += size
 
 
