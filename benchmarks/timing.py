@@ -38,16 +38,19 @@ class Sample:
                 "units": self.units, "repeats": len(self.seconds), "seconds": self.seconds}
 
 
-def interleaved(setups: dict[str, tuple[Callable[[], Prepared], int]], repeats: int) -> dict[str, Sample]:
-    """Time every ``name: (setup, units)`` ``repeats`` times, taking turns; ``setup()`` is not timed."""
+def interleaved(setups: dict[str, tuple[Callable[[], Prepared], int]], repeats: int,
+                clock: Callable[[], float] = time.perf_counter) -> dict[str, Sample]:
+    """Time every ``name: (setup, units)`` ``repeats`` times, taking turns; ``setup()`` is not timed.
+    ``clock``: wall time by default; ``time.process_time`` counts only this process's CPU time, which other
+    processes' load does not inflate, and is fair only between implementations that each use one thread."""
     samples = {name: Sample(units) for name, (_, units) in setups.items()}
     names = list(setups)
     for r in range(repeats):
         for name in names[r % len(names):] + names[:r % len(names)]:
             run = setups[name][0]()
-            t0 = time.perf_counter()
+            t0 = clock()
             run()
-            samples[name].seconds.append(time.perf_counter() - t0)
+            samples[name].seconds.append(clock() - t0)
     return samples
 
 

@@ -34,3 +34,28 @@ def test_observe_measures_the_upward_motion_of_touched_boxes_only() -> None:
     assert s.launch[0] == pytest.approx(0.2, abs=1e-12)  # box 0's 0.02 m in 0.1 s; box 1 never touched
     assert s.last_y[0].tolist() == pytest.approx([0.51, 3.5])
     assert s.peak_depth[0] == pytest.approx(0.01, abs=1e-12)  # the start's overlap is still the deepest
+
+
+def test_points_found_within_a_margin_give_the_monitors_of_touching_points_alone() -> None:
+    """A solver passes the monitors its next step's points, found within its speculative margin: the points
+    still apart must change nothing, so the monitors are those of the points that touch."""
+    from stackx.models.planar.collide import collide
+    from stackx.models.planar.monitor import observe_points
+
+    # made with one box sunk 2 cm into the ground, one 1 cm above it and one tilted clear of both; then every
+    # box rises 1 cm: the first is sunk 1 cm, the others are within 10 cm of something but touch nothing
+    s = _state([(0.0, 0.48, 0.0), (0.3, 1.49, 0.0), (2.0, 0.62, 0.2)])
+    s.y[0] += 0.01
+    alone, within = s.copy(), s.copy()
+    observe(s.x[0], s.y[0], s.angle[0], s.hx[0], s.hy[0], s.inv_mass[0], 0.1, *alone.monitors(), 0)
+    room = 64
+    out = (np.zeros(room, np.int64), np.zeros(room, np.int64), np.zeros((room, 2)), np.zeros((room, 2)),
+           np.zeros(room), np.zeros(room, np.int64))
+    count = collide(s.x[0], s.y[0], s.angle[0], s.hx[0], s.hy[0], s.inv_mass[0] == 0.0, 0.1, *out)
+    assert (out[4][:count] < 0.0).sum() >= 2  # the margin found points still apart
+    observe_points(out[0], out[1], out[4], count, s.y[0], s.hx[0], s.hy[0], s.inv_mass[0], 0.1,
+                   *within.monitors(), 0)
+    for name in PlanarState.MONITORS:
+        np.testing.assert_array_equal(getattr(within, name), getattr(alone, name), err_msg=name)
+    assert alone.touched.tolist() == [[True, False, False]]
+    assert alone.launch[0] == pytest.approx(0.1)  # the sunk box touched and rose 1 cm in 0.1 s

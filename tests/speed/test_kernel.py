@@ -8,6 +8,7 @@ import sys
 import textwrap
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from stackx import kernel
@@ -99,3 +100,31 @@ def test_a_block_picks_the_path_of_the_kernels_called_in_it() -> None:
     with kernel.compiled(True):
         assert halve(3.0) == 1.5
     assert len(halve.build().signatures) == 1
+
+
+@kernel.leaf
+def _push(v: np.ndarray, weights: np.ndarray, k: int, amount: float) -> float:
+    v[k] += weights[k] * amount
+    return v[k]
+
+
+@kernel.kernel
+def _pushes(v: np.ndarray, weights: np.ndarray, rounds: int) -> float:
+    total = 0.0
+    for r in range(rounds):
+        for k in range(v.shape[0]):
+            total += _push(v, weights, k, 0.1 * r - total * 1e-3)
+    return total
+
+
+def test_a_leaf_compiles_without_reference_counts_and_computes_as_plain() -> None:
+    weights = np.linspace(0.5, 1.5, 7)
+    plain_v, compiled_v = np.zeros(7), np.zeros(7)
+    with kernel.compiled(False):
+        plain = _pushes(plain_v, weights, 5)
+    with kernel.compiled(True):
+        compiled = _pushes(compiled_v, weights, 5)
+    assert compiled == plain and compiled_v.tolist() == plain_v.tolist()
+    assert plain_v[0] != 0.0
+    assert _push.build().targetoptions["_nrt"] is False
+    assert "_nrt" not in _pushes.build().targetoptions

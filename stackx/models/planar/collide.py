@@ -21,7 +21,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from stackx.kernel import kernel
+from stackx.kernel import kernel, leaf
+from stackx.models.planar.broad import bounds, candidate_pairs
 
 GROUND = -1
 REFERENCE_BIAS = 0.98  # box b becomes the reference only when clearly better: keeps the choice from flipping
@@ -39,29 +40,47 @@ def face_axis(x: float, y: float, c: float, s: float, hx: float, hy: float, face
     return c * lx - s * ly, s * lx + c * ly, extent, width
 
 
-@kernel
-def separation(xa: float, ya: float, ca: float, sa: float, hxa: float, hya: float,
-               xb: float, yb: float, cb: float, sb: float, hxb: float, hyb: float) -> tuple[float, int]:
+@leaf
+def shapes(x: np.ndarray, y: np.ndarray, cos: np.ndarray, sin: np.ndarray, hx: np.ndarray, hy: np.ndarray,
+           corners: np.ndarray, faces: np.ndarray) -> None:
+    """Every box's corners in the world (``corners[i, corner]``: x, y; corner 0 at ``(+hx, +hy)`` of its own
+    frame, then counter-clockwise) and faces (``faces[i, face]``: ``face_axis``), found once a step: each
+    pair the narrow phase tests reads them instead of turning both boxes again."""
+    for i in range(x.shape[0]):
+        c, s = cos[i], sin[i]
+        for corner in range(4):
+            px = hx[i] if corner == 0 or corner == 3 else -hx[i]
+            py = hy[i] if corner < 2 else -hy[i]
+            corners[i, corner, 0] = x[i] + c * px - s * py
+            corners[i, corner, 1] = y[i] + s * px + c * py
+        for face in range(4):
+            nx, ny, extent, width = face_axis(x[i], y[i], c, s, hx[i], hy[i], face)
+            faces[i, face, 0], faces[i, face, 1], faces[i, face, 2], faces[i, face, 3] = nx, ny, extent, width
+
+
+@leaf
+def separation(a: int, b: int, x: np.ndarray, y: np.ndarray, corners: np.ndarray, faces: np.ndarray,
+               margin: float) -> tuple[float, int]:
     """The largest separation of box b from a face of box a (negative: the overlap along that face's normal)
-    and that face: the deepest corner of b below each face plane of a, best face kept."""
+    and that face: the deepest corner of b below each face plane of a, best face kept. The first face that
+    separates them by more than ``margin`` is returned at once: the pair has no contact, whichever face
+    separates most."""
     best, best_face = -np.inf, 0
     for face in range(4):
-        nx, ny, extent, _ = face_axis(xa, ya, ca, sa, hxa, hya, face)
+        nx, ny, extent = faces[a, face, 0], faces[a, face, 1], faces[a, face, 2]
         low = np.inf
         for corner in range(4):
-            px = hxb if corner == 0 or corner == 3 else -hxb
-            py = hyb if corner < 2 else -hyb
-            cx = xb + cb * px - sb * py
-            cy = yb + sb * px + cb * py
-            d = (cx - xa) * nx + (cy - ya) * ny - extent
+            d = (corners[b, corner, 0] - x[a]) * nx + (corners[b, corner, 1] - y[a]) * ny - extent
             if d < low:
                 low = d
+        if low > margin:
+            return low, face
         if low > best:
             best, best_face = low, face
     return best, best_face
 
 
-@kernel
+@leaf
 def add_point(n: int, a: int, b: int, nx: float, ny: float, px: float, py: float, depth: float, feature: int,
               body_a: np.ndarray, body_b: np.ndarray, normal: np.ndarray, point: np.ndarray, depths: np.ndarray,
               features: np.ndarray) -> int:
@@ -75,12 +94,12 @@ def add_point(n: int, a: int, b: int, nx: float, ny: float, px: float, py: float
     return n + 1
 
 
-@kernel
-def ground_points(i: int, x: float, y: float, angle: float, hx: float, hy: float, margin: float, n: int,
+@leaf
+def ground_points(i: int, x: float, y: float, c: float, s: float, hx: float, hy: float, margin: float, n: int,
                   body_a: np.ndarray, body_b: np.ndarray, normal: np.ndarray, point: np.ndarray,
                   depths: np.ndarray, features: np.ndarray) -> int:
-    """The (at most two) lowest corners of box ``i`` within ``margin`` of the ground, normal straight up."""
-    c, s = np.cos(angle), np.sin(angle)
+    """The (at most two) lowest corners of box ``i`` (turned by an angle of cosine ``c`` and sine ``s``) within
+    ``margin`` of the ground, normal straight up."""
     first, second = -1, -1
     h1, h2 = np.inf, np.inf
     for corner in range(4):
@@ -103,37 +122,34 @@ def ground_points(i: int, x: float, y: float, angle: float, hx: float, hy: float
     return n
 
 
-@kernel
-def box_points(i: int, j: int, x: np.ndarray, y: np.ndarray, angle: np.ndarray, hx: np.ndarray, hy: np.ndarray,
+@leaf
+def box_points(i: int, j: int, x: np.ndarray, y: np.ndarray, corners: np.ndarray, faces: np.ndarray,
                margin: float, n: int, body_a: np.ndarray, body_b: np.ndarray, normal: np.ndarray,
                point: np.ndarray, depths: np.ndarray, features: np.ndarray) -> int:
-    """The manifold of boxes ``i`` and ``j`` (normal from i to j): reference face, incident face, clipping."""
-    ci, si, cj, sj = np.cos(angle[i]), np.sin(angle[i]), np.cos(angle[j]), np.sin(angle[j])
-    sep_i, face_i = separation(x[i], y[i], ci, si, hx[i], hy[i], x[j], y[j], cj, sj, hx[j], hy[j])
+    """The manifold of boxes ``i`` and ``j`` (normal from i to j): reference face, incident face, clipping;
+    the boxes' corners and faces from ``shapes``."""
+    sep_i, face_i = separation(i, j, x, y, corners, faces, margin)
     if sep_i > margin:
         return n
-    sep_j, face_j = separation(x[j], y[j], cj, sj, hx[j], hy[j], x[i], y[i], ci, si, hx[i], hy[i])
+    sep_j, face_j = separation(j, i, x, y, corners, faces, margin)
     if sep_j > margin:
         return n
     flip = sep_j > REFERENCE_BIAS * sep_i + ABSOLUTE_BIAS
     r, k = (j, i) if flip else (i, j)  # reference and incident box
     face = face_j if flip else face_i
-    cr, sr, ck, sk = (cj, sj, ci, si) if flip else (ci, si, cj, sj)
-    nx, ny, extent, width = face_axis(x[r], y[r], cr, sr, hx[r], hy[r], face)
+    nx, ny, extent, width = faces[r, face, 0], faces[r, face, 1], faces[r, face, 2], faces[r, face, 3]
     tx, ty = -ny, nx
     incident, lowest = 0, np.inf
     for f in range(4):
-        fx, fy, _, _ = face_axis(x[k], y[k], ck, sk, hx[k], hy[k], f)
-        d = fx * nx + fy * ny
+        d = faces[k, f, 0] * nx + faces[k, f, 1] * ny
         if d < lowest:
             incident, lowest = f, d
-    fx, fy, e, w = face_axis(x[k], y[k], ck, sk, hx[k], hy[k], incident)
+    fx, fy, e, w = faces[k, incident, 0], faces[k, incident, 1], faces[k, incident, 2], faces[k, incident, 3]
     gx, gy = -fy, fx
-    ends = np.empty((2, 2))
-    ends[0, 0], ends[0, 1] = x[k] + fx * e + gx * w, y[k] + fy * e + gy * w
-    ends[1, 0], ends[1, 1] = x[k] + fx * e - gx * w, y[k] + fy * e - gy * w
-    u0 = (ends[0, 0] - x[r]) * tx + (ends[0, 1] - y[r]) * ty
-    u1 = (ends[1, 0] - x[r]) * tx + (ends[1, 1] - y[r]) * ty
+    e0x, e0y = x[k] + fx * e + gx * w, y[k] + fy * e + gy * w  # the incident edge's two ends
+    e1x, e1y = x[k] + fx * e - gx * w, y[k] + fy * e - gy * w
+    u0 = (e0x - x[r]) * tx + (e0y - y[r]) * ty
+    u1 = (e1x - x[r]) * tx + (e1y - y[r]) * ty
     for bound in (-width, width):  # clip the edge to the reference face's width, one side at a time
         out0 = u0 < bound if bound < 0 else u0 > bound
         out1 = u1 < bound if bound < 0 else u1 > bound
@@ -141,19 +157,18 @@ def box_points(i: int, j: int, x: np.ndarray, y: np.ndarray, angle: np.ndarray, 
             return n
         if out0 or out1:
             t = (bound - u0) / (u1 - u0)
-            px, py = ends[0, 0] + t * (ends[1, 0] - ends[0, 0]), ends[0, 1] + t * (ends[1, 1] - ends[0, 1])
-            end = 0 if out0 else 1
-            ends[end, 0], ends[end, 1] = px, py
+            px, py = e0x + t * (e1x - e0x), e0y + t * (e1y - e0y)
             if out0:
-                u0 = bound
+                e0x, e0y, u0 = px, py, bound
             else:
-                u1 = bound
+                e1x, e1y, u1 = px, py, bound
     sign = -1.0 if flip else 1.0  # the normal goes from i to j
     for end in range(2):
-        sep = (ends[end, 0] - x[r]) * nx + (ends[end, 1] - y[r]) * ny - extent
+        ex, ey = (e0x, e0y) if end == 0 else (e1x, e1y)
+        sep = (ex - x[r]) * nx + (ey - y[r]) * ny - extent
         if sep <= margin:
             feature = (1 if flip else 0) * 64 + face * 16 + incident * 4 + end
-            n = add_point(n, i, j, sign * nx, sign * ny, ends[end, 0] - 0.5 * sep * nx, ends[end, 1] - 0.5 * sep * ny,
+            n = add_point(n, i, j, sign * nx, sign * ny, ex - 0.5 * sep * nx, ey - 0.5 * sep * ny,
                           -sep, feature, body_a, body_b, normal, point, depths, features)
     return n
 
@@ -164,23 +179,30 @@ def collide(x: np.ndarray, y: np.ndarray, angle: np.ndarray, hx: np.ndarray, hy:
             depths: np.ndarray, features: np.ndarray) -> int:
     """Every contact point of one world (one batch row's arrays): boxes on the ground, then pairs of boxes
     whose bounding boxes come within ``margin``, in index order; returns the number of points (more than
-    the arrays hold when they were too small). Two static boxes never collide."""
+    the arrays hold when they were too small). Two static boxes never collide.
+
+    The pairs are the broad phase's candidates (``broad.candidate_pairs``, a grid: linear in the boxes),
+    each tested again here as every pair once was, so the points and their order are those of testing
+    every pair."""
     bodies = x.shape[0]
     n = 0
-    reach_x = np.empty(bodies)
-    reach_y = np.empty(bodies)
+    cos, sin = np.empty(bodies), np.empty(bodies)
+    reach_x, reach_y = np.empty(bodies), np.empty(bodies)
+    bounds(angle, hx, hy, cos, sin, reach_x, reach_y)
+    corners, faces = np.empty((bodies, 4, 2)), np.empty((bodies, 4, 4))
+    shapes(x, y, cos, sin, hx, hy, corners, faces)
     for i in range(bodies):
-        c, s = abs(np.cos(angle[i])), abs(np.sin(angle[i]))
-        reach_x[i] = c * hx[i] + s * hy[i]
-        reach_y[i] = s * hx[i] + c * hy[i]
         if not static[i] and y[i] - reach_y[i] <= margin:
-            n = ground_points(i, x[i], y[i], angle[i], hx[i], hy[i], margin, n, body_a, body_b, normal, point,
-                              depths, features)
-    for i in range(bodies):
-        for j in range(i + 1, bodies):
-            if static[i] and static[j]:
-                continue
-            if abs(x[i] - x[j]) > reach_x[i] + reach_x[j] + margin or abs(y[i] - y[j]) > reach_y[i] + reach_y[j] + margin:
-                continue
-            n = box_points(i, j, x, y, angle, hx, hy, margin, n, body_a, body_b, normal, point, depths, features)
+            n = ground_points(i, x[i], y[i], cos[i], sin[i], hx[i], hy[i], margin, n, body_a, body_b, normal,
+                              point, depths, features)
+    keys = np.empty(4 * bodies + 16, np.int64)
+    pairs = candidate_pairs(x, y, reach_x, reach_y, static, margin, keys)
+    if pairs > keys.shape[0]:
+        keys = np.empty(pairs, np.int64)
+        pairs = candidate_pairs(x, y, reach_x, reach_y, static, margin, keys)
+    for p in range(pairs):
+        i, j = keys[p] // bodies, keys[p] % bodies
+        if abs(x[i] - x[j]) > reach_x[i] + reach_x[j] + margin or abs(y[i] - y[j]) > reach_y[i] + reach_y[j] + margin:
+            continue
+        n = box_points(i, j, x, y, corners, faces, margin, n, body_a, body_b, normal, point, depths, features)
     return n

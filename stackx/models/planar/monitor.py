@@ -3,14 +3,16 @@
 Solvers call ``observe`` for each batch row after every step, as column solvers call theirs: what it records
 comes from where the boxes are, found by the model's own collision test (``collide``, with points up to the
 touching gap apart, ``stackx.models.touch``), never from what a solver reports about its contacts, so a solver
-cannot hide an overlap it did not see.
+cannot hide an overlap it did not see. A solver
+that finds its next step's contacts where this step ended passes them to ``observe_points`` instead: the
+same collision test at the same positions, run once for both (``contacts.observed_contacts``).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from stackx.kernel import kernel
+from stackx.kernel import kernel, leaf
 from stackx.models.planar.collide import GROUND, collide
 from stackx.models.touch import TOUCH_GAP, touching
 
@@ -36,9 +38,8 @@ def observe(x: np.ndarray, y: np.ndarray, angle: np.ndarray, hx: np.ndarray, hy:
       something (m/s), whatever moved it;
     - ``last_y[b, i]``: the height of body ``i`` after this step, for the next one.
     """
-    bodies = x.shape[0]
     static = inv_mass == 0.0
-    room = contact_room(bodies)
+    room = contact_room(x.shape[0])
     while True:
         body_a = np.empty(room, np.int64)
         body_b = np.empty(room, np.int64)
@@ -50,6 +51,17 @@ def observe(x: np.ndarray, y: np.ndarray, angle: np.ndarray, hx: np.ndarray, hy:
         if count <= room:
             break
         room = count
+    observe_points(body_a, body_b, depth, count, y, hx, hy, inv_mass, dt, last_y, peak, reach, touched, launch, b)
+
+
+@leaf
+def observe_points(body_a: np.ndarray, body_b: np.ndarray, depth: np.ndarray, count: int, y: np.ndarray,
+                   hx: np.ndarray, hy: np.ndarray, inv_mass: np.ndarray, dt: float, last_y: np.ndarray,
+                   peak: np.ndarray, reach: np.ndarray, touched: np.ndarray, launch: np.ndarray, b: int) -> None:
+    """``observe`` from contact points ``collide`` has just found at the row's current positions (its first
+    ``count`` bodies and depths), with any margin: a point still apart (negative depth) changes no monitor,
+    so a solver that finds its next step's points (within its speculative margin) where the step ended
+    serves the monitors with the same list instead of colliding once more."""
     for k in range(count):
         d = depth[k]
         i, j = body_a[k], body_b[k]
@@ -64,8 +76,8 @@ def observe(x: np.ndarray, y: np.ndarray, angle: np.ndarray, hx: np.ndarray, hy:
             touched[b, j] = True
             if i != GROUND:
                 touched[b, i] = True
-    for i in range(bodies):
-        if touched[b, i] and not static[i]:
+    for i in range(y.shape[0]):
+        if touched[b, i] and inv_mass[i] != 0.0:
             rise = (y[i] - last_y[b, i]) / dt
             if rise > launch[b]:
                 launch[b] = rise

@@ -13,9 +13,12 @@ Functions, in the order a step uses them:
 - ``gravity(vy, inv_mass, g, dt)``: ``vy += g * dt`` for every movable body;
 - ``find_contacts(...)``: fill the table from ``collide`` (points within ``margin`` of touching), growing it
   when the world has more points than room; returns the (maybe new) table and the count;
+- ``observed_contacts(...)``: ``find_contacts`` where a step ended, the list serving both the step's monitors
+  and the next step (which starts at the same positions): one collision test a step, not one per use;
 - ``prepare(...)``: per point the anchors ``r_A``, ``r_B`` (the point minus each centre), the effective normal
   and tangent masses ``k = 1 / (m_A^-1 + m_B^-1 + I_A^-1 (r_A x d)^2 + I_B^-1 (r_B x d)^2)`` for ``d = n, t``
-  and the point's friction (``sqrt(mu_A mu_B)``; against the ground the box's own ``mu``);
+  and the point's friction (``sqrt(mu_A mu_B)``; against the ground the box's own ``mu``); per two-point
+  manifold its normal mass matrix (``block_matrix``): what the passes read, found once a step;
 - ``anchor_locals(...)``: each point's face plane and touching corner in the frames of the bodies that carry
   them, so a position stage can measure the separation again after the bodies moved and turned (NGS);
 - ``relative_velocity(...)``: the relative velocity of a point along a direction;
@@ -30,8 +33,8 @@ Functions, in the order a step uses them:
   accumulated clamping: the normal total >= 0, the friction total within ``[-mu pn, mu pn]``;
 - ``accumulated_iteration(...)``: one Gauss-Seidel pass over the manifolds, normals then friction, each
   normal step optionally over-relaxed;
-- ``solve_velocities(...)``: the velocity half of a step with accumulated impulses, the stages above in
-  order: gravity, contacts within ``speculative``, targets, warm start (or none), iterations, remember;
+- ``solve_velocities(...)``: the velocity half of a step with accumulated impulses on the step's points, the
+  stages above in order: gravity, anchors and masses, targets, warm start (or none), iterations, remember;
 - ``integrate_positions(...)``: positions and angles move with the velocities over ``dt``;
 - ``separation_push(...)``: one nonlinear Gauss-Seidel pass on positions (Box2D 2.x's position solve): each
   point's separation measured again from where its bodies are now (``anchor_locals``), and the point pushed
@@ -50,8 +53,10 @@ from __future__ import annotations
 import numpy as np
 
 from stackx.correct import correct
-from stackx.kernel import kernel
+from stackx.kernel import kernel, leaf
 from stackx.models.planar.collide import collide
+from stackx.models.planar.monitor import observe, observe_points
+from stackx.models.touch import TOUCH_GAP
 
 # ids columns
 A, B, FEATURE = 0, 1, 2
@@ -60,7 +65,10 @@ A, B, FEATURE = 0, 1, 2
 # incident body's frame (anchor_locals)
 NX, NY, PX, PY, DEPTH, RAX, RAY, RBX, RBY, KN, KT, MU, TARGET, PN, PT = range(15)
 LNX, LNY, LFX, LFY, LQX, LQY = range(15, 21)
-COLUMNS = 21
+# on the first point of a two-point manifold (prepare): its 2 x 2 normal mass matrix K and whether K is
+# conditioned well enough for the block solve (1.0) or not (0.0): fixed for the step, so found once
+K11, K12, K22, CONDITIONED = range(21, 25)
+COLUMNS = 25
 FLIPPED = 64  # collide's features from 64 up: the reference face is on body B
 BLOCK_CONDITION = 1000.0  # largest condition (k11^2 / det) a two-point block is solved at (Box2D 2.x's)
 
@@ -71,7 +79,7 @@ def contact_workspace(room: int) -> tuple[np.ndarray, np.ndarray]:
     return np.zeros((room, 3), np.int64), np.zeros((room, COLUMNS))
 
 
-@kernel
+@leaf
 def gravity(vy: np.ndarray, inv_mass: np.ndarray, g: float, dt: float) -> None:
     """``vy += g * dt`` for every movable body (static boxes stay still)."""
     for i in range(vy.shape[0]):
@@ -95,6 +103,37 @@ def find_contacts(x: np.ndarray, y: np.ndarray, angle: np.ndarray, hx: np.ndarra
 
 
 @kernel
+def observed_contacts(x: np.ndarray, y: np.ndarray, angle: np.ndarray, hx: np.ndarray, hy: np.ndarray,
+                      inv_mass: np.ndarray, margin: float, ids: np.ndarray, table: np.ndarray, dt: float,
+                      last: np.ndarray, peak: np.ndarray, reach: np.ndarray, touched: np.ndarray,
+                      launch: np.ndarray, b: int) -> tuple[np.ndarray, np.ndarray, int]:
+    """The contacts where a step ended, found once for two uses: the monitors of row ``b`` for this step
+    (``monitor.observe_points``) and the next step, which starts where this one ended (the solver passes
+    the table on instead of finding it again). Returns ``find_contacts``'s ``(ids, table, count)``.
+
+    A box counts as touching up to ``TOUCH_GAP`` apart (``stackx.models.touch``). While some movable box has
+    not touched anything yet and ``margin`` is narrower than that gap, the solver's list cannot tell, so the
+    monitors take the model's own collision test (``monitor.observe``) instead; once every box has touched,
+    the one list serves both."""
+    ids, table, count = find_contacts(x, y, angle, hx, hy, inv_mass, margin, ids, table)
+    if margin < TOUCH_GAP and untouched(touched, inv_mass, b):
+        observe(x, y, angle, hx, hy, inv_mass, dt, last, peak, reach, touched, launch, b)
+    else:
+        observe_points(ids[:, A], ids[:, B], table[:, DEPTH], count, y, hx, hy, inv_mass, dt, last, peak, reach,
+                       touched, launch, b)
+    return ids, table, count
+
+
+@leaf
+def untouched(touched: np.ndarray, inv_mass: np.ndarray, b: int) -> bool:
+    """Whether some movable body of row ``b`` has not touched anything yet."""
+    for i in range(inv_mass.shape[0]):
+        if inv_mass[i] != 0.0 and not touched[b, i]:
+            return True
+    return False
+
+
+@kernel
 def effective_mass(ima: float, iia: float, rax: float, ray: float, imb: float, iib: float, rbx: float,
                    rby: float, dx: float, dy: float) -> float:
     """``1 / (d . K d)`` of a point along the unit direction ``d``; 0 when nothing can move."""
@@ -104,7 +143,7 @@ def effective_mass(ima: float, iia: float, rax: float, ray: float, imb: float, i
     return 1.0 / total if total > 0.0 else 0.0
 
 
-@kernel
+@leaf
 def prepare(x: np.ndarray, y: np.ndarray, inv_mass: np.ndarray, inv_inertia: np.ndarray, friction: np.ndarray,
             ids: np.ndarray, table: np.ndarray, count: int) -> None:
     """Anchors, effective normal and tangent masses and friction of every point; impulses set to 0."""
@@ -126,9 +165,37 @@ def prepare(x: np.ndarray, y: np.ndarray, inv_mass: np.ndarray, inv_inertia: np.
         table[k, TARGET] = 0.0
         table[k, PN] = 0.0
         table[k, PT] = 0.0
+    k = 0
+    while k < count:
+        if k + 1 < count and ids[k + 1, A] == ids[k, A] and ids[k + 1, B] == ids[k, B]:
+            block_matrix(inv_mass, inv_inertia, ids, table, k)
+            k += 2
+        else:
+            k += 1
 
 
-@kernel
+@leaf
+def block_matrix(inv_mass: np.ndarray, inv_inertia: np.ndarray, ids: np.ndarray, table: np.ndarray,
+                 k: int) -> None:
+    """The normal mass matrix ``K = [[k11, k12], [k12, k22]]`` of the two-point manifold at ``k`` (how much a
+    unit normal impulse at one point opens each), into its first row, and whether ``k11^2 < BLOCK_CONDITION
+    det K`` (Box2D 2.x's test before it inverts ``K``). It depends on the anchors and masses only, so the
+    passes read it instead of finding it again at every visit (Box2D 2.x keeps it in its velocity
+    constraint for the same reason)."""
+    nx, ny = table[k, NX], table[k, NY]
+    j = k + 1
+    a, b = ids[k, A], ids[k, B]
+    ima, iia = (inv_mass[a], inv_inertia[a]) if a >= 0 else (0.0, 0.0)
+    k11, k22 = 1.0 / table[k, KN], 1.0 / table[j, KN]
+    ca1, ca2 = table[k, RAX] * ny - table[k, RAY] * nx, table[j, RAX] * ny - table[j, RAY] * nx  # r x n
+    cb1, cb2 = table[k, RBX] * ny - table[k, RBY] * nx, table[j, RBX] * ny - table[j, RBY] * nx
+    k12 = ima + inv_mass[b] + iia * ca1 * ca2 + inv_inertia[b] * cb1 * cb2
+    det = k11 * k22 - k12 * k12
+    table[k, K11], table[k, K12], table[k, K22] = k11, k12, k22
+    table[k, CONDITIONED] = 1.0 if k11 * k11 < BLOCK_CONDITION * det else 0.0
+
+
+@leaf
 def anchor_locals(x: np.ndarray, y: np.ndarray, angle: np.ndarray, ids: np.ndarray, table: np.ndarray,
                   count: int) -> None:
     """Each point's reference face (normal and a point of its plane) in the frame of the body that owns the
@@ -154,7 +221,7 @@ def anchor_locals(x: np.ndarray, y: np.ndarray, angle: np.ndarray, ids: np.ndarr
         table[k, LQX], table[k, LQY] = c * qx + s * qy, -s * qx + c * qy
 
 
-@kernel
+@leaf
 def relative_velocity(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, ids: np.ndarray, table: np.ndarray, k: int,
                       dx: float, dy: float) -> float:
     """``((v_B + w_B x r_B) - (v_A + w_A x r_A)) . d`` at point ``k`` (m/s)."""
@@ -168,7 +235,7 @@ def relative_velocity(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, ids: np.nda
     return ux * dx + uy * dy
 
 
-@kernel
+@leaf
 def apply_impulse(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, inv_mass: np.ndarray, inv_inertia: np.ndarray,
                   ids: np.ndarray, table: np.ndarray, k: int, px: float, py: float) -> None:
     """The impulse ``(px, py)`` at point ``k`` on body B, and its opposite on body A."""
@@ -183,7 +250,37 @@ def apply_impulse(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, inv_mass: np.nd
         w[a] -= inv_inertia[a] * (table[k, RAX] * py - table[k, RAY] * px)
 
 
-@kernel
+@leaf
+def manifold_velocity(vax: float, vay: float, wa: float, vbx: float, vby: float, wb: float, grounded: bool,
+                      table: np.ndarray, k: int, dx: float, dy: float) -> float:
+    """``relative_velocity`` from a manifold's two body velocities held in locals (``grounded``: A is the
+    ground), the same arithmetic in the same order, so the same number: a pass that visits a manifold's points
+    one after the other keeps its bodies' velocities in registers instead of reading them back each visit."""
+    ux = vbx - wb * table[k, RBY]
+    uy = vby + wb * table[k, RBX]
+    if not grounded:
+        ux -= vax - wa * table[k, RAY]
+        uy -= vay + wa * table[k, RAX]
+    return ux * dx + uy * dy
+
+
+@leaf
+def manifold_impulse(vax: float, vay: float, wa: float, vbx: float, vby: float, wb: float, grounded: bool,
+                     ima: float, iia: float, imb: float, iib: float, table: np.ndarray, k: int, px: float,
+                     py: float) -> tuple[float, float, float, float, float, float]:
+    """``apply_impulse`` on a manifold's two body velocities held in locals: the six velocities after the
+    impulse ``(px, py)`` at point ``k`` on B and its opposite on A (A's unchanged when ``grounded``)."""
+    vbx += imb * px
+    vby += imb * py
+    wb += iib * (table[k, RBX] * py - table[k, RBY] * px)
+    if not grounded:
+        vax -= ima * px
+        vay -= ima * py
+        wa -= iia * (table[k, RAX] * py - table[k, RAY] * px)
+    return vax, vay, wa, vbx, vby, wb
+
+
+@leaf
 def set_targets(table: np.ndarray, count: int, dt: float) -> None:
     """The slowest normal velocity each point accepts: ``depth/dt`` for a point still apart (a speculative
     point may close its gap within the step, no more), 0 for a touching one (no approach)."""
@@ -192,7 +289,7 @@ def set_targets(table: np.ndarray, count: int, dt: float) -> None:
         table[k, TARGET] = d / dt if d < 0.0 else 0.0
 
 
-@kernel
+@leaf
 def recall(ids: np.ndarray, table: np.ndarray, count: int, keys: np.ndarray, carried: np.ndarray,
            held: int) -> None:
     """Warm start values: each point's impulses from the last step's point with the same ``(A, B, FEATURE)``,
@@ -211,7 +308,7 @@ def recall(ids: np.ndarray, table: np.ndarray, count: int, keys: np.ndarray, car
             i += 1
 
 
-@kernel
+@leaf
 def remember(ids: np.ndarray, table: np.ndarray, count: int, keys: np.ndarray, carried: np.ndarray) -> int:
     """Keep this step's points and impulses for the next (as many as the memory holds); returns how many."""
     held = min(count, keys.shape[0])
@@ -221,7 +318,7 @@ def remember(ids: np.ndarray, table: np.ndarray, count: int, keys: np.ndarray, c
     return held
 
 
-@kernel
+@leaf
 def warm_start(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, inv_mass: np.ndarray, inv_inertia: np.ndarray,
                ids: np.ndarray, table: np.ndarray, count: int) -> None:
     """Apply every point's carried impulses (``PN``, ``PT``) to the velocities."""
@@ -232,35 +329,73 @@ def warm_start(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, inv_mass: np.ndarr
             apply_impulse(vx, vy, w, inv_mass, inv_inertia, ids, table, k, pn * nx - pt * ny, pn * ny + pt * nx)
 
 
-@kernel
-def friction_visit(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, inv_mass: np.ndarray, inv_inertia: np.ndarray,
-                   ids: np.ndarray, table: np.ndarray, k: int) -> None:
+@leaf
+def friction_step(vax: float, vay: float, wa: float, vbx: float, vby: float, wb: float, grounded: bool,
+                  ima: float, iia: float, imb: float, iib: float, table: np.ndarray,
+                  k: int) -> tuple[float, float, float, float, float, float]:
     """Point ``k``'s tangent total moved towards stopping its sliding, kept within ``mu`` times its normal
-    total so far: a point never holds more sideways than it is pressed."""
+    total so far: a point never holds more sideways than it is pressed. On a manifold's two body velocities
+    held in locals (``manifold_velocity``); returns them after the visit."""
     nx, ny = table[k, NX], table[k, NY]
     limit = table[k, MU] * table[k, PN]
     old = table[k, PT]
-    total = old - table[k, KT] * relative_velocity(vx, vy, w, ids, table, k, -ny, nx)
+    total = old - table[k, KT] * manifold_velocity(vax, vay, wa, vbx, vby, wb, grounded, table, k, -ny, nx)
     total = min(max(total, -limit), limit)
     if total != old:
         step = total - old
-        apply_impulse(vx, vy, w, inv_mass, inv_inertia, ids, table, k, -step * ny, step * nx)
         table[k, PT] = total
+        return manifold_impulse(vax, vay, wa, vbx, vby, wb, grounded, ima, iia, imb, iib, table, k, -step * ny,
+                                step * nx)
+    return vax, vay, wa, vbx, vby, wb
 
 
-@kernel
-def normal_visit(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, inv_mass: np.ndarray, inv_inertia: np.ndarray,
-                 ids: np.ndarray, table: np.ndarray, k: int, relaxation: float) -> None:
+@leaf
+def normal_step(vax: float, vay: float, wa: float, vbx: float, vby: float, wb: float, grounded: bool,
+                ima: float, iia: float, imb: float, iib: float, table: np.ndarray, k: int,
+                relaxation: float) -> tuple[float, float, float, float, float, float]:
     """Point ``k``'s normal total moved to meet its target (times ``relaxation``), kept >= 0: the increment
-    may be negative (an earlier visit pushed too hard), only the total may not pull."""
+    may be negative (an earlier visit pushed too hard), only the total may not pull. On a manifold's two body
+    velocities held in locals; returns them after the visit."""
     nx, ny = table[k, NX], table[k, NY]
     old = table[k, PN]
-    gap = table[k, TARGET] - relative_velocity(vx, vy, w, ids, table, k, nx, ny)
+    gap = table[k, TARGET] - manifold_velocity(vax, vay, wa, vbx, vby, wb, grounded, table, k, nx, ny)
     total = max(old + relaxation * table[k, KN] * gap, 0.0)
     if total != old:
         step = total - old
-        apply_impulse(vx, vy, w, inv_mass, inv_inertia, ids, table, k, step * nx, step * ny)
         table[k, PN] = total
+        return manifold_impulse(vax, vay, wa, vbx, vby, wb, grounded, ima, iia, imb, iib, table, k, step * nx,
+                                step * ny)
+    return vax, vay, wa, vbx, vby, wb
+
+
+@leaf
+def friction_visit(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, inv_mass: np.ndarray, inv_inertia: np.ndarray,
+                   ids: np.ndarray, table: np.ndarray, k: int) -> None:
+    """``friction_step`` on the bodies' velocity arrays."""
+    a, b = ids[k, A], ids[k, B]
+    grounded = a < 0
+    vax, vay, wa, ima, iia = 0.0, 0.0, 0.0, 0.0, 0.0
+    if not grounded:
+        vax, vay, wa, ima, iia = vx[a], vy[a], w[a], inv_mass[a], inv_inertia[a]
+    vax, vay, wa, vx[b], vy[b], w[b] = friction_step(vax, vay, wa, vx[b], vy[b], w[b], grounded, ima, iia,
+                                                     inv_mass[b], inv_inertia[b], table, k)
+    if not grounded:
+        vx[a], vy[a], w[a] = vax, vay, wa
+
+
+@leaf
+def normal_visit(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, inv_mass: np.ndarray, inv_inertia: np.ndarray,
+                 ids: np.ndarray, table: np.ndarray, k: int, relaxation: float) -> None:
+    """``normal_step`` on the bodies' velocity arrays."""
+    a, b = ids[k, A], ids[k, B]
+    grounded = a < 0
+    vax, vay, wa, ima, iia = 0.0, 0.0, 0.0, 0.0, 0.0
+    if not grounded:
+        vax, vay, wa, ima, iia = vx[a], vy[a], w[a], inv_mass[a], inv_inertia[a]
+    vax, vay, wa, vx[b], vy[b], w[b] = normal_step(vax, vay, wa, vx[b], vy[b], w[b], grounded, ima, iia,
+                                                   inv_mass[b], inv_inertia[b], table, k, relaxation)
+    if not grounded:
+        vx[a], vy[a], w[a] = vax, vay, wa
 
 
 @kernel
@@ -287,45 +422,61 @@ def two_point_lcp(k11: float, k12: float, k22: float, b1: float, b2: float, pair
     return 0.0, 0.0, False
 
 
-@kernel
-def block_normal(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, inv_mass: np.ndarray, inv_inertia: np.ndarray,
-                 ids: np.ndarray, table: np.ndarray, k: int, relaxation: float) -> bool:
+@leaf
+def block_step(vax: float, vay: float, wa: float, vbx: float, vby: float, wb: float, grounded: bool,
+               ima: float, iia: float, imb: float, iib: float, table: np.ndarray, k: int,
+               relaxation: float) -> tuple[bool, float, float, float, float, float, float]:
     """The normal totals of points ``k`` and ``k + 1`` (one manifold: same bodies, same normal) solved together.
 
     The two points' complementarity problem (``two_point_lcp``, ``K`` the 2 x 2 normal mass matrix) is solved
     for the totals, and the change from the current totals is applied.
     A box resting flat then has its load shared by both corners as the exact solve shares it, where visiting
     the corners one after the other lets the first take too much and the box rock. With ``relaxation`` w the
-    totals move ``w`` times the way to that answer (kept >= 0). Returns False (nothing
-    done) when ``K`` is too ill-conditioned to invert (the two points nearly on one line through the bodies'
-    lever arms) or no case fits in rounding; the caller then visits the points one by one.
+    totals move ``w`` times the way to that answer (kept >= 0). On a manifold's two body velocities held in
+    locals: returns whether it was solved, and the velocities after. Not solved (nothing done) when ``K`` is
+    too ill-conditioned to invert (the two points nearly on one line through the bodies' lever arms) or no
+    case fits in rounding; the caller then visits the points one by one.
     """
+    if table[k, CONDITIONED] == 0.0:
+        return False, vax, vay, wa, vbx, vby, wb
     nx, ny = table[k, NX], table[k, NY]
     j = k + 1
-    a, b = ids[k, A], ids[k, B]
-    ima, iia = (inv_mass[a], inv_inertia[a]) if a >= 0 else (0.0, 0.0)
-    k11, k22 = 1.0 / table[k, KN], 1.0 / table[j, KN]
-    ca1, ca2 = table[k, RAX] * ny - table[k, RAY] * nx, table[j, RAX] * ny - table[j, RAY] * nx  # r x n
-    cb1, cb2 = table[k, RBX] * ny - table[k, RBY] * nx, table[j, RBX] * ny - table[j, RBY] * nx
-    k12 = ima + inv_mass[b] + iia * ca1 * ca2 + inv_inertia[b] * cb1 * cb2
-    det = k11 * k22 - k12 * k12
-    if not k11 * k11 < BLOCK_CONDITION * det:
-        return False
+    k11, k12, k22 = table[k, K11], table[k, K12], table[k, K22]  # from prepare (block_matrix)
     a1, a2 = table[k, PN], table[j, PN]
-    b1 = relative_velocity(vx, vy, w, ids, table, k, nx, ny) - table[k, TARGET] - (k11 * a1 + k12 * a2)
-    b2 = relative_velocity(vx, vy, w, ids, table, j, nx, ny) - table[j, TARGET] - (k12 * a1 + k22 * a2)
+    b1 = manifold_velocity(vax, vay, wa, vbx, vby, wb, grounded, table, k, nx, ny) - table[k, TARGET] - (
+        k11 * a1 + k12 * a2)
+    b2 = manifold_velocity(vax, vay, wa, vbx, vby, wb, grounded, table, j, nx, ny) - table[j, TARGET] - (
+        k12 * a1 + k22 * a2)
     x1, x2, found = two_point_lcp(k11, k12, k22, b1, b2, True)
     if not found:
-        return False
+        return False, vax, vay, wa, vbx, vby, wb
     x1, x2 = max(a1 + relaxation * (x1 - a1), 0.0), max(a2 + relaxation * (x2 - a2), 0.0)
     d1, d2 = x1 - a1, x2 - a2
-    apply_impulse(vx, vy, w, inv_mass, inv_inertia, ids, table, k, d1 * nx, d1 * ny)
-    apply_impulse(vx, vy, w, inv_mass, inv_inertia, ids, table, j, d2 * nx, d2 * ny)
+    vax, vay, wa, vbx, vby, wb = manifold_impulse(vax, vay, wa, vbx, vby, wb, grounded, ima, iia, imb, iib, table,
+                                                  k, d1 * nx, d1 * ny)
+    vax, vay, wa, vbx, vby, wb = manifold_impulse(vax, vay, wa, vbx, vby, wb, grounded, ima, iia, imb, iib, table,
+                                                  j, d2 * nx, d2 * ny)
     table[k, PN], table[j, PN] = x1, x2
-    return True
+    return True, vax, vay, wa, vbx, vby, wb
 
 
-@kernel
+@leaf
+def block_normal(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, inv_mass: np.ndarray, inv_inertia: np.ndarray,
+                 ids: np.ndarray, table: np.ndarray, k: int, relaxation: float) -> bool:
+    """``block_step`` on the bodies' velocity arrays: whether it was solved."""
+    a, b = ids[k, A], ids[k, B]
+    grounded = a < 0
+    vax, vay, wa, ima, iia = 0.0, 0.0, 0.0, 0.0, 0.0
+    if not grounded:
+        vax, vay, wa, ima, iia = vx[a], vy[a], w[a], inv_mass[a], inv_inertia[a]
+    solved, vax, vay, wa, vx[b], vy[b], w[b] = block_step(vax, vay, wa, vx[b], vy[b], w[b], grounded, ima, iia,
+                                                          inv_mass[b], inv_inertia[b], table, k, relaxation)
+    if not grounded:
+        vx[a], vy[a], w[a] = vax, vay, wa
+    return solved
+
+
+@leaf
 def accumulated_iteration(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, inv_mass: np.ndarray,
                           inv_inertia: np.ndarray, ids: np.ndarray, table: np.ndarray, count: int,
                           block: bool, relaxation: float) -> None:
@@ -343,30 +494,42 @@ def accumulated_iteration(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, inv_mas
     k = 0
     while k < count:
         size = 2 if k + 1 < count and ids[k + 1, A] == ids[k, A] and ids[k + 1, B] == ids[k, B] else 1
-        if not (block and size == 2 and block_normal(vx, vy, w, inv_mass, inv_inertia, ids, table, k,
-                                                     relaxation)):
+        a, b = ids[k, A], ids[k, B]
+        grounded = a < 0  # the manifold's two bodies' velocities held in locals over its points
+        vax, vay, wa, ima, iia = 0.0, 0.0, 0.0, 0.0, 0.0
+        if not grounded:
+            vax, vay, wa, ima, iia = vx[a], vy[a], w[a], inv_mass[a], inv_inertia[a]
+        vbx, vby, wb, imb, iib = vx[b], vy[b], w[b], inv_mass[b], inv_inertia[b]
+        solved = False
+        if block and size == 2:
+            solved, vax, vay, wa, vbx, vby, wb = block_step(vax, vay, wa, vbx, vby, wb, grounded, ima, iia, imb,
+                                                            iib, table, k, relaxation)
+        if not solved:
             for i in range(k, k + size):
-                normal_visit(vx, vy, w, inv_mass, inv_inertia, ids, table, i, relaxation)
+                vax, vay, wa, vbx, vby, wb = normal_step(vax, vay, wa, vbx, vby, wb, grounded, ima, iia, imb, iib,
+                                                         table, i, relaxation)
         for i in range(k, k + size):
-            friction_visit(vx, vy, w, inv_mass, inv_inertia, ids, table, i)
+            vax, vay, wa, vbx, vby, wb = friction_step(vax, vay, wa, vbx, vby, wb, grounded, ima, iia, imb, iib,
+                                                       table, i)
+        if not grounded:
+            vx[a], vy[a], w[a] = vax, vay, wa
+        vx[b], vy[b], w[b] = vbx, vby, wb
         k += size
 
 
-@kernel
-def solve_velocities(x: np.ndarray, y: np.ndarray, angle: np.ndarray, vx: np.ndarray, vy: np.ndarray,
-                     w: np.ndarray, inv_mass: np.ndarray, inv_inertia: np.ndarray, hx: np.ndarray, hy: np.ndarray,
-                     friction: np.ndarray, g: float, dt: float, speculative: float, carry: bool, iterations: int,
-                     block: bool, relaxation: float, ids: np.ndarray, table: np.ndarray, keys: np.ndarray,
-                     carried: np.ndarray,
-                     held: int) -> tuple[np.ndarray, np.ndarray, int, int]:
-    """The velocity half of a step with accumulated impulses: gravity; the points within ``speculative`` of
-    touching with their anchors, masses and targets; the last step's impulses found again and applied
-    (``carry``; otherwise every point starts from zero); ``iterations`` passes (two-point manifolds' normals
-    together when ``block``); this step's impulses kept.
+@leaf
+def solve_velocities(x: np.ndarray, y: np.ndarray, vx: np.ndarray, vy: np.ndarray, w: np.ndarray,
+                     inv_mass: np.ndarray, inv_inertia: np.ndarray, friction: np.ndarray, g: float, dt: float,
+                     carry: bool, iterations: int, block: bool, relaxation: float, ids: np.ndarray,
+                     table: np.ndarray, count: int, keys: np.ndarray, carried: np.ndarray, held: int) -> int:
+    """The velocity half of a step with accumulated impulses, on the step's contact points (the first
+    ``count`` of the table, found within the solver's speculative margin where the step starts): gravity;
+    the points' anchors, masses and targets; the last step's impulses found again and applied (``carry``;
+    otherwise every point starts from zero); ``iterations`` passes (two-point manifolds' normals together
+    when ``block``); this step's impulses kept.
     ``relaxation`` scales every normal step (1: plain Gauss-Seidel; see ``accumulated_iteration``).
-    Returns the table (maybe grown), its count and how many points the memory now holds."""
+    Returns how many points the memory now holds."""
     gravity(vy, inv_mass, g, dt)
-    ids, table, count = find_contacts(x, y, angle, hx, hy, inv_mass, speculative, ids, table)
     prepare(x, y, inv_mass, inv_inertia, friction, ids, table, count)
     set_targets(table, count, dt)
     if carry:
@@ -374,10 +537,10 @@ def solve_velocities(x: np.ndarray, y: np.ndarray, angle: np.ndarray, vx: np.nda
         warm_start(vx, vy, w, inv_mass, inv_inertia, ids, table, count)
     for _ in range(iterations):
         accumulated_iteration(vx, vy, w, inv_mass, inv_inertia, ids, table, count, block, relaxation)
-    return ids, table, count, remember(ids, table, count, keys, carried)
+    return remember(ids, table, count, keys, carried)
 
 
-@kernel
+@leaf
 def integrate_positions(x: np.ndarray, y: np.ndarray, angle: np.ndarray, vx: np.ndarray, vy: np.ndarray,
                         w: np.ndarray, dt: float) -> None:
     """Move every body with its velocities over ``dt`` (static bodies have none)."""
@@ -387,7 +550,7 @@ def integrate_positions(x: np.ndarray, y: np.ndarray, angle: np.ndarray, vx: np.
         angle[i] += w[i] * dt
 
 
-@kernel
+@leaf
 def correct_positions(x: np.ndarray, y: np.ndarray, inv_mass: np.ndarray, ids: np.ndarray, table: np.ndarray,
                       count: int, slop: float, percent: float, shift: np.ndarray) -> None:
     """The lab's correction on the points of the table (found after the positions moved), in table order.
@@ -418,7 +581,7 @@ def correct_positions(x: np.ndarray, y: np.ndarray, inv_mass: np.ndarray, ids: n
             shift[b, 1] += up * ny
 
 
-@kernel
+@leaf
 def separation_push(x: np.ndarray, y: np.ndarray, angle: np.ndarray, inv_mass: np.ndarray,
                     inv_inertia: np.ndarray, ids: np.ndarray, table: np.ndarray, count: int, slop: float,
                     percent: float, max_correction: float) -> float:

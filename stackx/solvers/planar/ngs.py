@@ -25,14 +25,13 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
 from stackx.kernel import kernel, prange
-from stackx.models.planar.monitor import observe
 from stackx.models.planar.state import PlanarState
 from stackx.registry import solvers
 from stackx.solvers.contacts import speculative_field
 from stackx.solvers.planar.base import PlanarMemorySolver
-from stackx.solvers.planar.reach import reach_in_step
-from stackx.solvers.planar.contacts import (anchor_locals, contact_workspace, integrate_positions,
-                                            separation_push, solve_velocities)
+from stackx.solvers.planar.contacts import (anchor_locals, contact_workspace, find_contacts, integrate_positions,
+                                            observed_contacts, separation_push, solve_velocities)
+from stackx.solvers.planar.reach import contact_margin
 
 SOLVED = 3.0  # position passes stop once no point is deeper than this many slops (Box2D 2.x)
 
@@ -78,11 +77,11 @@ def planar_ngs_advance(x: np.ndarray, y: np.ndarray, angle: np.ndarray, vx: np.n
         xb, yb, ab, vxb, vyb, wb = x[b], y[b], angle[b], vx[b], vy[b], w[b]  # the row's views, made once
         im, ii, hxb, hyb, mub = inv_mass[b], inv_inertia[b], hx[b], hy[b], friction[b]
         ids, table = contact_workspace(keys.shape[1])
+        margin = contact_margin(speculative[b], vxb, vyb, wb, im, hxb, hyb, g[b], dt[b])
+        ids, table, count = find_contacts(xb, yb, ab, hxb, hyb, im, margin, ids, table)
         for _ in range(steps):
-            ids, table, count, held[b] = solve_velocities(
-                xb, yb, ab, vxb, vyb, wb, im, ii, hxb, hyb, mub, g[b], dt[b],
-                max(speculative[b], reach_in_step(vxb, vyb, wb, im, hxb, hyb, g[b], dt[b])), carry[b],
-                iterations[b], block[b], 1.0, ids, table, keys[b], carried[b], held[b])
+            held[b] = solve_velocities(xb, yb, vxb, vyb, wb, im, ii, mub, g[b], dt[b], carry[b], iterations[b],
+                                       block[b], 1.0, ids, table, count, keys[b], carried[b], held[b])
             anchor_locals(xb, yb, ab, ids, table, count)
             integrate_positions(xb, yb, ab, vxb, vyb, wb, dt[b])
             for _ in range(position_iterations[b]):
@@ -90,7 +89,9 @@ def planar_ngs_advance(x: np.ndarray, y: np.ndarray, angle: np.ndarray, vx: np.n
                                           max_correction[b])
                 if deepest <= SOLVED * slop[b]:
                     break
-            observe(xb, yb, ab, hxb, hyb, im, dt[b], last, peak, reach, touched, launch, b)
+            margin = contact_margin(speculative[b], vxb, vyb, wb, im, hxb, hyb, g[b], dt[b])
+            ids, table, count = observed_contacts(xb, yb, ab, hxb, hyb, im, margin, ids, table, dt[b], last,
+                                                  peak, reach, touched, launch, b)
 
 
 @solvers.register("planar-ngs")

@@ -22,15 +22,15 @@ from __future__ import annotations
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, field_validator
 
-from stackx.kernel import kernel, prange
-from stackx.models.planar.monitor import contact_room, observe
+from stackx.kernel import kernel, leaf, prange
+from stackx.models.planar.monitor import contact_room
 from stackx.models.planar.state import PlanarState
 from stackx.registry import solvers
 from stackx.solvers.base import Correction, LabCorrection
 from stackx.solvers.planar.base import PlanarSolver, sequential_only
 from stackx.solvers.planar.contacts import (DEPTH, KN, KT, MU, NX, NY, PN, PT, apply_impulse, contact_workspace,
                                             correct_positions, find_contacts, gravity, integrate_positions,
-                                            prepare, relative_velocity)
+                                            observed_contacts, prepare, relative_velocity)
 
 
 class PlanarPGSParams(BaseModel):
@@ -47,7 +47,7 @@ class PlanarPGSParams(BaseModel):
     _sequential = field_validator("correction")(sequential_only)
 
 
-@kernel
+@leaf
 def lab_pass(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, inv_mass: np.ndarray, inv_inertia: np.ndarray,
              ids: np.ndarray, table: np.ndarray, count: int) -> None:
     """One pass of per-visit clamped impulses over the overlapping points: stop the approach, then friction
@@ -83,9 +83,9 @@ def planar_pgs_advance(x: np.ndarray, y: np.ndarray, angle: np.ndarray, vx: np.n
         im, ii, hxb, hyb, mub = inv_mass[b], inv_inertia[b], hx[b], hy[b], friction[b]
         ids, table = contact_workspace(contact_room(x.shape[1]))
         shift = np.zeros((x.shape[1], 2))
+        ids, table, count = find_contacts(xb, yb, ab, hxb, hyb, im, 0.0, ids, table)
         for _ in range(steps):
             gravity(vyb, im, g[b], dt[b])
-            ids, table, count = find_contacts(xb, yb, ab, hxb, hyb, im, 0.0, ids, table)
             prepare(xb, yb, im, ii, mub, ids, table, count)
             for _ in range(iterations[b]):
                 lab_pass(vxb, vyb, wb, im, ii, ids, table, count)
@@ -93,7 +93,8 @@ def planar_pgs_advance(x: np.ndarray, y: np.ndarray, angle: np.ndarray, vx: np.n
             if corrects[b]:
                 ids, table, count = find_contacts(xb, yb, ab, hxb, hyb, im, 0.0, ids, table)
                 correct_positions(xb, yb, im, ids, table, count, slop[b], percent[b], shift)
-            observe(xb, yb, ab, hxb, hyb, im, dt[b], last, peak, reach, touched, launch, b)
+            ids, table, count = observed_contacts(xb, yb, ab, hxb, hyb, im, 0.0, ids, table, dt[b], last, peak,
+                                                  reach, touched, launch, b)
 
 
 @solvers.register("planar-pgs")

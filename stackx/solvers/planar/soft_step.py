@@ -39,14 +39,14 @@ from __future__ import annotations
 import numpy as np
 from pydantic import Field
 
-from stackx.kernel import kernel, prange
-from stackx.models.planar.monitor import observe
+from stackx.kernel import kernel, leaf, prange
 from stackx.models.planar.state import PlanarState
 from stackx.registry import solvers
 from stackx.solvers.planar.base import PlanarMemorySolver
-from stackx.solvers.planar.contacts import (A, B, KN, KT, MU, NX, NY, PN, PT, apply_impulse, contact_workspace,
-                                            find_contacts, gravity, integrate_positions, prepare, recall,
-                                            relative_velocity, remember, warm_start)
+from stackx.solvers.planar.contacts import (A, B, KN, KT, MU, NX, NY, PN, PT, contact_workspace,
+                                            find_contacts, gravity, integrate_positions, manifold_impulse,
+                                            manifold_velocity, observed_contacts, prepare, recall, remember,
+                                            warm_start)
 from stackx.solvers.planar.substep import base_separations, manifold_end, moved, separation, step_start
 from stackx.solvers.soft_step import STATIC_HERTZ, SoftStepParams, soft
 
@@ -69,7 +69,7 @@ class PlanarSoftStepParams(SoftStepParams):
                                                "a tall stack sinks and sways")
 
 
-@kernel
+@leaf
 def soft_pass(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, inv_mass: np.ndarray, inv_inertia: np.ndarray,
               ids: np.ndarray, table: np.ndarray, count: int, base: np.ndarray, since: np.ndarray, h: float,
               use_bias: bool, push_out: float, softness: np.ndarray) -> None:
@@ -80,13 +80,20 @@ def soft_pass(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, inv_mass: np.ndarra
     impulse and lets go ``impulse_scale`` of what it holds; without the bias it only stops approach. The
     normal total stays >= 0 and each point's friction total within ``mu`` times its normal total.
     ``softness`` holds ``(bias_rate, mass_scale, impulse_scale)`` for two movable bodies (row 0) and for a
-    point with a static side, the ground or a static box (row 1).
+    point with a static side, the ground or a static box (row 1). A manifold's two bodies' velocities and
+    inverse masses are read once, held in locals over its points and written back once (as Box2D v3's
+    contact solver does), which changes no number: its points share those two bodies and no others.
     """
     start = 0
     while start < count:
         end = manifold_end(ids, start, count)
         a, b = ids[start, A], ids[start, B]
-        row = 1 if a < 0 or inv_mass[a] == 0.0 or inv_mass[b] == 0.0 else 0
+        grounded = a < 0
+        vax, vay, wa, ima, iia = 0.0, 0.0, 0.0, 0.0, 0.0
+        if not grounded:
+            vax, vay, wa, ima, iia = vx[a], vy[a], w[a], inv_mass[a], inv_inertia[a]
+        vbx, vby, wb, imb, iib = vx[b], vy[b], w[b], inv_mass[b], inv_inertia[b]
+        row = 1 if grounded or ima == 0.0 or imb == 0.0 else 0
         for k in range(start, end):
             s = separation(ids, table, base, since, k)
             target, mass_scale, impulse_scale = 0.0, 1.0, 0.0
@@ -96,19 +103,24 @@ def soft_pass(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, inv_mass: np.ndarra
                 target = min(-softness[row, 0] * s, push_out)
                 mass_scale, impulse_scale = softness[row, 1], softness[row, 2]
             nx, ny = table[k, NX], table[k, NY]
-            un = relative_velocity(vx, vy, w, ids, table, k, nx, ny)
+            un = manifold_velocity(vax, vay, wa, vbx, vby, wb, grounded, table, k, nx, ny)
             old = table[k, PN]
             total = max(old + table[k, KN] * mass_scale * (target - un) - impulse_scale * old, 0.0)
-            apply_impulse(vx, vy, w, inv_mass, inv_inertia, ids, table, k, (total - old) * nx, (total - old) * ny)
+            vax, vay, wa, vbx, vby, wb = manifold_impulse(vax, vay, wa, vbx, vby, wb, grounded, ima, iia, imb, iib,
+                                                          table, k, (total - old) * nx, (total - old) * ny)
             table[k, PN] = total
         for k in range(start, end):
             nx, ny = table[k, NX], table[k, NY]
             limit = table[k, MU] * table[k, PN]
             old = table[k, PT]
-            total = old - table[k, KT] * relative_velocity(vx, vy, w, ids, table, k, -ny, nx)
+            total = old - table[k, KT] * manifold_velocity(vax, vay, wa, vbx, vby, wb, grounded, table, k, -ny, nx)
             total = min(max(total, -limit), limit)
-            apply_impulse(vx, vy, w, inv_mass, inv_inertia, ids, table, k, -(total - old) * ny, (total - old) * nx)
+            vax, vay, wa, vbx, vby, wb = manifold_impulse(vax, vay, wa, vbx, vby, wb, grounded, ima, iia, imb, iib,
+                                                          table, k, -(total - old) * ny, (total - old) * nx)
             table[k, PT] = total
+        if not grounded:
+            vx[a], vy[a], w[a] = vax, vay, wa
+        vx[b], vy[b], w[b] = vbx, vby, wb
         start = end
 
 
@@ -135,8 +147,8 @@ def soft_step_advance(x: np.ndarray, y: np.ndarray, angle: np.ndarray, vx: np.nd
         base = np.empty(keys.shape[1])
         start = np.empty((n, 3))
         since = np.empty((n, 4))
+        ids, table, count = find_contacts(xb, yb, ab, hxb, hyb, im, speculative[b], ids, table)
         for _ in range(steps):
-            ids, table, count = find_contacts(xb, yb, ab, hxb, hyb, im, speculative[b], ids, table)
             prepare(xb, yb, im, ii, mub, ids, table, count)
             if base.shape[0] < count:
                 base = np.empty(ids.shape[0])
@@ -153,7 +165,8 @@ def soft_step_advance(x: np.ndarray, y: np.ndarray, angle: np.ndarray, vx: np.nd
                 if relax[b]:
                     soft_pass(vxb, vyb, wb, im, ii, ids, table, count, base, since, h, False, push_out[b], softness)
             held[b] = remember(ids, table, count, keys[b], carried[b])
-            observe(xb, yb, ab, hxb, hyb, im, dt[b], last, peak, reach, touched, launch, b)
+            ids, table, count = observed_contacts(xb, yb, ab, hxb, hyb, im, speculative[b], ids, table, dt[b],
+                                                  last, peak, reach, touched, launch, b)
 
 
 @solvers.register("planar-soft-step")

@@ -14,11 +14,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from stackx.kernel import kernel
+from stackx.kernel import kernel, leaf
 from stackx.solvers.planar.contacts import A, B, DEPTH, NX, NY, RAX, RAY, RBX, RBY
 
 
-@kernel
+@leaf
 def step_start(x: np.ndarray, y: np.ndarray, angle: np.ndarray, start: np.ndarray, since: np.ndarray) -> None:
     """Remember where every body is as the step begins (``start``: x, y, angle) and that none has moved."""
     for i in range(x.shape[0]):
@@ -26,7 +26,7 @@ def step_start(x: np.ndarray, y: np.ndarray, angle: np.ndarray, start: np.ndarra
         since[i, 0], since[i, 1], since[i, 2], since[i, 3] = 0.0, 0.0, 1.0, 0.0
 
 
-@kernel
+@leaf
 def moved_body(x: np.ndarray, y: np.ndarray, angle: np.ndarray, start: np.ndarray, since: np.ndarray,
                i: int) -> None:
     """How far body ``i`` has moved since the step began: ``since[i] = (dx, dy, cos turn, sin turn)``."""
@@ -35,14 +35,14 @@ def moved_body(x: np.ndarray, y: np.ndarray, angle: np.ndarray, start: np.ndarra
     since[i, 2], since[i, 3] = np.cos(turn), np.sin(turn)
 
 
-@kernel
+@leaf
 def moved(x: np.ndarray, y: np.ndarray, angle: np.ndarray, start: np.ndarray, since: np.ndarray) -> None:
     """``moved_body`` for every body."""
     for i in range(x.shape[0]):
         moved_body(x, y, angle, start, since, i)
 
 
-@kernel
+@leaf
 def base_separations(ids: np.ndarray, table: np.ndarray, count: int, base: np.ndarray) -> None:
     """Each point's separation when found (``-depth``) less what its anchors give along the normal, so that
     ``separation`` adds back the anchors as they move: ``base = -depth - (r_B - r_A) . n``."""
@@ -51,7 +51,7 @@ def base_separations(ids: np.ndarray, table: np.ndarray, count: int, base: np.nd
         base[k] = -table[k, DEPTH] - (lever_x * table[k, NX] + lever_y * table[k, NY])
 
 
-@kernel
+@leaf
 def anchor(table: np.ndarray, since: np.ndarray, body: int, k: int, rx: int) -> tuple[float, float]:
     """Anchor ``r`` of point ``k`` (table columns ``rx``, ``rx + 1``) turned as ``body`` has turned since
     the step began: the anchored material point relative to the body's centre now."""
@@ -59,7 +59,7 @@ def anchor(table: np.ndarray, since: np.ndarray, body: int, k: int, rx: int) -> 
     return since[body, 2] * r0x - since[body, 3] * r0y, since[body, 3] * r0x + since[body, 2] * r0y
 
 
-@kernel
+@leaf
 def separation(ids: np.ndarray, table: np.ndarray, base: np.ndarray, since: np.ndarray, k: int) -> float:
     """Separation of point ``k`` now (m, negative: overlap)."""
     a, b = ids[k, A], ids[k, B]
@@ -72,7 +72,7 @@ def separation(ids: np.ndarray, table: np.ndarray, base: np.ndarray, since: np.n
     return base[k] + px * table[k, NX] + py * table[k, NY]
 
 
-@kernel
+@leaf
 def manifold_end(ids: np.ndarray, start: int, count: int) -> int:
     """One past the last point of the manifold (the same two bodies) that begins at ``start``."""
     end = start + 1

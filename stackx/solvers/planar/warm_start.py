@@ -36,14 +36,13 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, field_validator
 
 from stackx.kernel import kernel, prange
-from stackx.models.planar.monitor import observe
 from stackx.models.planar.state import PlanarState
 from stackx.registry import solvers
 from stackx.solvers.base import Correction, LabCorrection
 from stackx.solvers.contacts import speculative_field
 from stackx.solvers.planar.base import PlanarMemorySolver, sequential_only
 from stackx.solvers.planar.contacts import (contact_workspace, correct_positions, find_contacts,
-                                            integrate_positions, solve_velocities)
+                                            integrate_positions, observed_contacts, solve_velocities)
 
 
 class PlanarWarmStartParams(BaseModel):
@@ -91,15 +90,16 @@ def planar_warm_start_advance(x: np.ndarray, y: np.ndarray, angle: np.ndarray, v
         im, ii, hxb, hyb, mub = inv_mass[b], inv_inertia[b], hx[b], hy[b], friction[b]
         ids, table = contact_workspace(keys.shape[1])
         shift = np.zeros((x.shape[1], 2))
+        ids, table, count = find_contacts(xb, yb, ab, hxb, hyb, im, speculative[b], ids, table)
         for _ in range(steps):
-            ids, table, count, held[b] = solve_velocities(
-                xb, yb, ab, vxb, vyb, wb, im, ii, hxb, hyb, mub, g[b], dt[b], speculative[b], carry[b],
-                iterations[b], block[b], relaxation[b], ids, table, keys[b], carried[b], held[b])
+            held[b] = solve_velocities(xb, yb, vxb, vyb, wb, im, ii, mub, g[b], dt[b], carry[b], iterations[b],
+                                       block[b], relaxation[b], ids, table, count, keys[b], carried[b], held[b])
             integrate_positions(xb, yb, ab, vxb, vyb, wb, dt[b])
             if corrects[b]:
                 ids, table, count = find_contacts(xb, yb, ab, hxb, hyb, im, 0.0, ids, table)
                 correct_positions(xb, yb, im, ids, table, count, slop[b], percent[b], shift)
-            observe(xb, yb, ab, hxb, hyb, im, dt[b], last, peak, reach, touched, launch, b)
+            ids, table, count = observed_contacts(xb, yb, ab, hxb, hyb, im, speculative[b], ids, table, dt[b],
+                                                  last, peak, reach, touched, launch, b)
 
 
 @solvers.register("planar-warm-start")

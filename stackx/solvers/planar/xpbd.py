@@ -41,16 +41,17 @@ from __future__ import annotations
 import numpy as np
 from pydantic import Field
 
-from stackx.kernel import kernel, prange
-from stackx.models.planar.monitor import contact_room, observe
+from stackx.kernel import kernel, leaf, prange
+from stackx.models.planar.monitor import contact_room
 from stackx.models.planar.state import PlanarState
 from stackx.registry import solvers
 from stackx.solvers.contacts import speculative_field
 from stackx.solvers.planar.base import PlanarSolver
-from stackx.solvers.planar.reach import reach_in_step
+from stackx.solvers.planar.reach import contact_margin
 from stackx.solvers.planar.contacts import (A, B, MU, NX, NY, PN, PT, RAX, RAY, RBX, RBY, apply_impulse,
                                             contact_workspace, effective_mass, find_contacts, gravity,
-                                            integrate_positions, prepare, relative_velocity, two_point_lcp)
+                                            integrate_positions, observed_contacts, prepare, relative_velocity,
+                                            two_point_lcp)
 from stackx.solvers.planar.substep import (anchor, base_separations, manifold_end, moved, moved_body, separation,
                                            step_start)
 from stackx.solvers.xpbd import XPBDParams
@@ -71,7 +72,7 @@ class PlanarXPBDParams(XPBDParams):
                                         "removed whole (that only stops the approach)")
 
 
-@kernel
+@leaf
 def current_anchors(ids: np.ndarray, table: np.ndarray, since: np.ndarray, k: int, now: np.ndarray) -> None:
     """Point ``k``'s anchors as its bodies have turned, into ``now`` (a table whose anchor columns follow
     the bodies, so the shared impulse and velocity stages act at the points where they are now)."""
@@ -82,7 +83,7 @@ def current_anchors(ids: np.ndarray, table: np.ndarray, since: np.ndarray, k: in
         now[k, RAX], now[k, RAY] = anchor(table, since, a, k, RAX)
 
 
-@kernel
+@leaf
 def point_mass(ids: np.ndarray, now: np.ndarray, k: int, inv_mass: np.ndarray, inv_inertia: np.ndarray,
                dx: float, dy: float) -> float:
     """``1 / w`` of point ``k`` along ``(dx, dy)`` at its current anchors: the generalized mass."""
@@ -92,7 +93,7 @@ def point_mass(ids: np.ndarray, now: np.ndarray, k: int, inv_mass: np.ndarray, i
                           now[k, RBY], dx, dy)
 
 
-@kernel
+@leaf
 def shove(x: np.ndarray, y: np.ndarray, angle: np.ndarray, inv_mass: np.ndarray, inv_inertia: np.ndarray,
           ids: np.ndarray, now: np.ndarray, k: int, px: float, py: float, start: np.ndarray,
           since: np.ndarray) -> None:
@@ -104,7 +105,7 @@ def shove(x: np.ndarray, y: np.ndarray, angle: np.ndarray, inv_mass: np.ndarray,
         moved_body(x, y, angle, start, since, ids[k, A])
 
 
-@kernel
+@leaf
 def slip(ids: np.ndarray, table: np.ndarray, since: np.ndarray, before: np.ndarray, k: int) -> float:
     """How far the anchored point of B has slid along the tangent relative to A's since the substep began."""
     a, b = ids[k, A], ids[k, B]
@@ -133,7 +134,7 @@ def pair_solve(k11: float, k12: float, k22: float, s1: float, s2: float) -> tupl
     return l1, max(-(s2 + k12 * l1) / k22, 0.0)
 
 
-@kernel
+@leaf
 def coupling(ids: np.ndarray, now: np.ndarray, k: int, j: int, inv_mass: np.ndarray, inv_inertia: np.ndarray,
              dx: float, dy: float) -> float:
     """How far a unit impulse along ``(dx, dy)`` at point ``j`` opens point ``k`` of the same two bodies
@@ -146,7 +147,7 @@ def coupling(ids: np.ndarray, now: np.ndarray, k: int, j: int, inv_mass: np.ndar
     return out
 
 
-@kernel
+@leaf
 def normal_impulses(ids: np.ndarray, now: np.ndarray, start: int, end: int, inv_mass: np.ndarray,
                     inv_inertia: np.ndarray, s1: float, s2: float, soft: float) -> tuple[float, float]:
     """Normal impulses of the manifold's one or two points that bring ``s`` (separations, or normal
@@ -177,7 +178,7 @@ def separations(ids: np.ndarray, table: np.ndarray, base: np.ndarray, since: np.
         out[k] = separation(ids, table, base, since, k)
 
 
-@kernel
+@leaf
 def project(x: np.ndarray, y: np.ndarray, angle: np.ndarray, inv_mass: np.ndarray, inv_inertia: np.ndarray,
             ids: np.ndarray, table: np.ndarray, count: int, base: np.ndarray, start: np.ndarray,
             since: np.ndarray, before: np.ndarray, now: np.ndarray, stiffness: float, held: np.ndarray,
@@ -216,7 +217,7 @@ def project(x: np.ndarray, y: np.ndarray, angle: np.ndarray, inv_mass: np.ndarra
         first = end
 
 
-@kernel
+@leaf
 def derive_velocities(x: np.ndarray, y: np.ndarray, angle: np.ndarray, vx: np.ndarray, vy: np.ndarray,
                       w: np.ndarray, inv_mass: np.ndarray, poses: np.ndarray, h: float) -> None:
     """Each movable box's velocities are what it did over the substep (from ``poses``: x, y, angle)."""
@@ -234,7 +235,7 @@ def gap(ids: np.ndarray, table: np.ndarray, base: np.ndarray, since: np.ndarray,
     return s if s > near else 0.0
 
 
-@kernel
+@leaf
 def velocity_pass(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, inv_mass: np.ndarray, inv_inertia: np.ndarray,
                   ids: np.ndarray, table: np.ndarray, count: int, base: np.ndarray, since: np.ndarray,
                   now: np.ndarray, h: float, near: float) -> None:
@@ -287,9 +288,9 @@ def xpbd_advance(x: np.ndarray, y: np.ndarray, angle: np.ndarray, vx: np.ndarray
         held = np.empty(table.shape[0])  # each point's separation as the substep begins
         start, poses = np.empty((n, 3)), np.empty((n, 3))
         since, before = np.empty((n, 4)), np.empty((n, 4))
+        margin = contact_margin(speculative[b], vxb, vyb, wb, im, hxb, hyb, g[b], dt[b])
+        ids, table, count = find_contacts(xb, yb, ab, hxb, hyb, im, margin, ids, table)
         for _ in range(steps):
-            margin = max(speculative[b], reach_in_step(vxb, vyb, wb, im, hxb, hyb, g[b], dt[b]))
-            ids, table, count = find_contacts(xb, yb, ab, hxb, hyb, im, margin, ids, table)
             prepare(xb, yb, im, ii, mub, ids, table, count)
             if base.shape[0] < count:
                 base = np.empty(table.shape[0])
@@ -311,7 +312,9 @@ def xpbd_advance(x: np.ndarray, y: np.ndarray, angle: np.ndarray, vx: np.ndarray
                         max_push[b] * h)
                 derive_velocities(xb, yb, ab, vxb, vyb, wb, im, poses, h)
                 velocity_pass(vxb, vyb, wb, im, ii, ids, table, count, base, since, now, h, speculative[b])
-            observe(xb, yb, ab, hxb, hyb, im, dt[b], last, peak, reach, touched, launch, b)
+            margin = contact_margin(speculative[b], vxb, vyb, wb, im, hxb, hyb, g[b], dt[b])
+            ids, table, count = observed_contacts(xb, yb, ab, hxb, hyb, im, margin, ids, table, dt[b], last,
+                                                  peak, reach, touched, launch, b)
 
 
 @solvers.register("planar-xpbd")

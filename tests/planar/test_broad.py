@@ -1,0 +1,96 @@
+"""The broad phase filters pairs, it never changes contacts: ``collide`` finds exactly the points, in exactly
+the order, of testing every pair of boxes (the narrow phase run on all ``n^2 / 2`` pairs, written out here)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from stackx import kernel
+from stackx.models.planar.broad import candidate_pairs
+from stackx.models.planar.collide import box_points, collide, ground_points, shapes
+
+
+def every_pair(x: np.ndarray, y: np.ndarray, angle: np.ndarray, hx: np.ndarray, hy: np.ndarray,
+               static: np.ndarray, margin: float, room: int) -> tuple[int, tuple[np.ndarray, ...]]:
+    """The contact points of testing every pair, in index order: ground first, then ``(i, j)``, ``i < j``."""
+    out = (np.zeros(room, np.int64), np.zeros(room, np.int64), np.zeros((room, 2)), np.zeros((room, 2)),
+           np.zeros(room), np.zeros(room, np.int64))
+    n = 0
+    bodies = len(x)
+    cos, sin = np.cos(angle), np.sin(angle)
+    reach_x = [abs(cos[i]) * hx[i] + abs(sin[i]) * hy[i] for i in range(bodies)]
+    reach_y = [abs(sin[i]) * hx[i] + abs(cos[i]) * hy[i] for i in range(bodies)]
+    corners, faces = np.empty((bodies, 4, 2)), np.empty((bodies, 4, 4))
+    with kernel.compiled(False):
+        shapes(x, y, cos, sin, hx, hy, corners, faces)
+        for i in range(bodies):
+            if not static[i] and y[i] - reach_y[i] <= margin:
+                n = ground_points(i, x[i], y[i], cos[i], sin[i], hx[i], hy[i], margin, n, *out)
+        for i in range(bodies):
+            for j in range(i + 1, bodies):
+                if static[i] and static[j]:
+                    continue
+                if (abs(x[i] - x[j]) > reach_x[i] + reach_x[j] + margin
+                        or abs(y[i] - y[j]) > reach_y[i] + reach_y[j] + margin):
+                    continue
+                n = box_points(i, j, x, y, corners, faces, margin, n, *out)
+    return n, out
+
+
+def scene(seed: int, boxes: int) -> tuple[np.ndarray, ...]:
+    """A jumble of boxes of mixed sizes and angles over a few square metres (many overlap, some far apart),
+    a few static, one a long static slab and one a long movable plank (both off the grid)."""
+    rng = np.random.default_rng(seed)
+    side = math.sqrt(boxes) * 0.8
+    x, y = rng.uniform(-side, side, boxes), rng.uniform(0.0, 2 * side, boxes)
+    angle = rng.uniform(-math.pi, math.pi, boxes)
+    hx, hy = rng.uniform(0.05, 0.8, boxes), rng.uniform(0.05, 0.8, boxes)
+    static = rng.uniform(size=boxes) < 0.1
+    x[0], y[0], angle[0], hx[0], hy[0], static[0] = 0.0, side, 0.1, 3 * side, 0.3, True
+    x[1], y[1], angle[1], hx[1], hy[1], static[1] = 0.5, side + 0.4, -0.05, 2 * side, 0.2, False
+    return x, y, angle, hx, hy, static
+
+
+@pytest.mark.parametrize("compiled", [False, True])
+@pytest.mark.parametrize("seed", [0, 1, 2])
+@pytest.mark.parametrize("margin", [0.0, 0.02, 0.3])
+def test_collide_finds_the_points_of_testing_every_pair(seed: int, margin: float, compiled: bool) -> None:
+    x, y, angle, hx, hy, static = scene(seed, 120)
+    room = 4000
+    want_n, want = every_pair(x, y, angle, hx, hy, static, margin, room)
+    got = (np.zeros(room, np.int64), np.zeros(room, np.int64), np.zeros((room, 2)), np.zeros((room, 2)),
+           np.zeros(room), np.zeros(room, np.int64))
+    with kernel.compiled(compiled):
+        n = collide(x, y, angle, hx, hy, static, margin, *got)
+    assert want_n > 100  # the jumble has many contacts, on the ground, between boxes and on both long bodies
+    assert n == want_n
+    for g, w in zip(got, want):
+        np.testing.assert_array_equal(g[:n], w[:n])
+
+
+def test_a_pile_of_touching_unit_boxes_gives_each_touching_pair_once_in_index_order() -> None:
+    # a 3 x 3 grid of unit boxes 0.5 cm apart: within a 1 cm margin each touches its 2 to 4 side neighbours
+    # and its diagonal ones' bounding boxes as well (the grid is about bounding boxes, not shapes)
+    xs, ys = np.meshgrid(np.arange(3) * 1.005, np.arange(3) * 1.005 + 0.5)
+    x, y = xs.ravel().copy(), ys.ravel().copy()
+    reach = np.full(9, 0.5)
+    keys = np.zeros(100, np.int64)
+    with kernel.compiled(False):
+        count = candidate_pairs(x, y, reach, reach, np.zeros(9, np.bool_), 0.01, keys)
+    want = sorted(i * 9 + j for i in range(9) for j in range(i + 1, 9)
+                  if abs(i % 3 - j % 3) <= 1 and abs(i // 3 - j // 3) <= 1)
+    assert keys[:count].tolist() == want
+
+
+def test_two_static_boxes_are_never_a_candidate_and_a_small_room_reports_the_count() -> None:
+    x, y = np.array([0.0, 0.5, 1.0]), np.array([0.5, 0.5, 0.5])
+    reach = np.full(3, 0.5)
+    keys = np.zeros(1, np.int64)
+    with kernel.compiled(False):
+        assert candidate_pairs(x, y, reach, reach, np.array([True, True, False]), 0.0, keys) == 2
+        keys = np.zeros(2, np.int64)
+        assert candidate_pairs(x, y, reach, reach, np.array([True, True, False]), 0.0, keys) == 2
+    assert keys.tolist() == [0 * 3 + 2, 1 * 3 + 2]
