@@ -37,13 +37,15 @@ def test_observe_measures_the_upward_motion_of_touched_boxes_only() -> None:
 
 
 def test_points_found_within_a_margin_give_the_monitors_of_touching_points_alone() -> None:
-    """A solver passes the monitors its next step's points, found within its speculative margin: the points
-    still apart must change nothing, so the monitors are those of the points that touch."""
+    """A solver passes the monitors its next step's points, found within its speculative margin: points
+    further apart than the touching gap must change nothing, so the monitors are those of the points that
+    touch (overlapping or at most ``TOUCH_GAP`` apart)."""
     from stackx.models.planar.collide import collide
     from stackx.models.planar.monitor import observe_points
 
     # made with one box sunk 2 cm into the ground, one 1 cm above it and one tilted clear of both; then every
-    # box rises 1 cm: the first is sunk 1 cm, the others are within 10 cm of something but touch nothing
+    # box rises 1 cm: the first is sunk 1 cm, the second 1 cm above it (within the 2 cm touching gap), the
+    # third's lowest corner 3.1 cm above the ground (within the 10 cm margin, but not touching)
     s = _state([(0.0, 0.48, 0.0), (0.3, 1.49, 0.0), (2.0, 0.62, 0.2)])
     s.y[0] += 0.01
     alone, within = s.copy(), s.copy()
@@ -57,5 +59,5 @@ def test_points_found_within_a_margin_give_the_monitors_of_touching_points_alone
                    *within.monitors(), 0)
     for name in PlanarState.MONITORS:
         np.testing.assert_array_equal(getattr(within, name), getattr(alone, name), err_msg=name)
-    assert alone.touched.tolist() == [[True, False, False]]
-    assert alone.launch[0] == pytest.approx(0.1)  # the sunk box touched and rose 1 cm in 0.1 s
+    assert alone.touched.tolist() == [[True, True, False]]
+    assert alone.launch[0] == pytest.approx(0.1)  # the touching boxes rose 1 cm in 0.1 s
