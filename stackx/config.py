@@ -10,12 +10,13 @@ from __future__ import annotations
 
 import copy
 import itertools
+import math
 import re
 import reprlib
 from dataclasses import dataclass, field
 from fractions import Fraction
 from pathlib import Path as FsPath
-from typing import Annotated, Any, NamedTuple
+from typing import Annotated, Any, Iterator, NamedTuple
 
 from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, StringConstraints, ValidationError, field_validator
 
@@ -23,7 +24,7 @@ from stackx import registry, sizing
 from stackx.bench.case import BenchSection
 from stackx.errors import ConfigError
 from stackx.limits import Limits
-from stackx.outputs import Output, Renderer, confine
+from stackx.outputs import Output, Renderer, clashes, confine, path_key
 from stackx.spec import Plan, RunSpec
 from stackx.yamlsrc import Mark, Path, Source, dotted, load_file, load_text
 
@@ -297,17 +298,44 @@ def _override(src: Source, key: str, value: Any, origin: Path, key_origin: Path)
     return _Override(key, path, value, origin, _subtree_marks(src, origin))
 
 
-def _variants(exp: ExperimentModel, src: Source) -> list[tuple[str, Source, dict[str, Any]]]:
-    """The runs of an experiment: (name, the run's part of the config with overrides applied, overrides)."""
+def _variants(exp: ExperimentModel, src: Source) -> Iterator[tuple[str, Source, dict[str, Any]]]:
+    """The runs of an experiment: (name, the run's part of the config with overrides applied, overrides), made
+    one at a time. A sweep's size is known from its grid's shape and checked against ``limits.max_runs``
+    before the first run is made."""
     if exp.runs is not None and exp.sweep is not None:
         raise src.error(("sweep",), "give either 'runs' or 'sweep', not both", key=True)
-    plans: list[tuple[str, tuple[_Override, ...]]] = []
+    if exp.sweep is not None:
+        size = math.prod(len(values) for values in exp.sweep.grid.values())
+        if size > exp.limits.max_runs:
+            shape = " x ".join(str(len(values)) for values in exp.sweep.grid.values())
+            raise src.error(("sweep", "grid"), f"the grid makes {shape} = {size:,} runs, over limits.max_runs = "
+                                               f"{exp.limits.max_runs:,}; use fewer values, or raise the limit "
+                                               "(limits: {max_runs: N})")
+    base = _run_part(src)
+    seen: set[str] = set()
+    for name, sets in _plans(exp, src):
+        if not NAME.match(name):
+            raise src.error(("sweep", "name"), f"run name {name!r} is not letters, digits and _; change the template")
+        if name in seen:
+            raise src.error(("sweep", "name"), f"two runs are named {name!r}; put every grid key in the name")
+        seen.add(name)
+        variant = base.copy()
+        for o in sets:
+            try:
+                _set(variant, o.path, o.value, o.marks)
+            except KeyError as exc:
+                raise src.error(o.origin, f"no such place in the config: {exc.args[0]}", key=True) from None
+        yield name, variant, {o.key: o.value for o in sets}
+
+
+def _plans(exp: ExperimentModel, src: Source) -> Iterator[tuple[str, tuple[_Override, ...]]]:
+    """Each run's name and overrides, in order: the named ``runs``, the ``sweep``'s grid points (last key
+    fastest), or the config's one run ``main``."""
     if exp.runs is not None:
         if not exp.runs:
             raise src.error(("runs",), "'runs' is empty")
         for name, sets in exp.runs.items():
-            plans.append((name, tuple(_override(src, k, v, ("runs", name, k), ("runs", name, k))
-                                      for k, v in sets.items())))
+            yield name, tuple(_override(src, k, v, ("runs", name, k), ("runs", name, k)) for k, v in sets.items())
     elif exp.sweep is not None:
         options = []  # per grid key, one override per value: each key is checked once, not once per run
         for k, values in exp.sweep.grid.items():
@@ -320,25 +348,9 @@ def _variants(exp: ExperimentModel, src: Source) -> list[tuple[str, Source, dict
             except KeyError as exc:
                 raise src.error(("sweep", "name"), f"unknown field {{{exc.args[0]}}}; allowed: "
                                                    f"{', '.join('{' + k + '}' for k in fill)}") from None
-            plans.append((name, sets))
+            yield name, sets
     else:
-        plans.append(("main", ()))
-    base = _run_part(src)
-    out, seen = [], set()
-    for name, sets in plans:
-        if not NAME.match(name):
-            raise src.error(("sweep", "name"), f"run name {name!r} is not letters, digits and _; change the template")
-        if name in seen:
-            raise src.error(("sweep", "name"), f"two runs are named {name!r}; put every grid key in the name")
-        seen.add(name)
-        variant = base.copy()
-        for o in sets:
-            try:
-                _set(variant, o.path, o.value, o.marks)
-            except KeyError as exc:
-                raise src.error(o.origin, f"no such place in the config: {exc.args[0]}", key=True) from None
-        out.append((name, variant, {o.key: o.value for o in sets}))
-    return out
+        yield "main", ()
 
 
 def _run_part(src: Source) -> Source:
@@ -367,9 +379,15 @@ def _resolve_run(name: str, src: Source, overrides: dict[str, Any], sections: di
         missing = "scene" if base.scene is None else "solver"
         raise src.error((missing,), f"a run needs a {missing!r} section")
     scene_key, solver_key = f"scene {base.scene!r}", f"solver {base.solver!r}"
+    limits = exp.limits
     if scene_key not in sections:
+        for key, value in base.scene.items():  # a listed scene is counted before its boxes are validated
+            if isinstance(value, list) and len(value) > limits.max_bodies:
+                raise src.error(("scene", key), _too_many_bodies(len(value), limits))
         scene_cls, scene_params = _plugin(registry.scenes, base.scene, "name", src, ("scene",))
-        sections[scene_key] = scene_cls(scene_params)
+        sections[scene_key] = scene = scene_cls(scene_params)
+        if scene.size() > limits.max_bodies:
+            raise src.error(("scene",), _too_many_bodies(scene.size(), limits))
     if solver_key not in sections:
         sections[solver_key] = _plugin(registry.solvers, base.solver, "name", src, ("solver",))
     scene, (solver_cls, solver_params) = sections[scene_key], sections[solver_key]
@@ -383,12 +401,22 @@ def _resolve_run(name: str, src: Source, overrides: dict[str, Any], sections: di
                                             f"solvers of {scene.model!r}: {', '.join(_stepping(scene.model))}")
     if base.steps == 0:
         raise src.error(("steps",), "a run needs 'steps' > 0")
+    if base.steps * scene.size() > limits.max_box_steps:
+        raise src.error(("steps",), f"run {name!r}: {base.steps:,} steps x {scene.size():,} boxes = "
+                                    f"{base.steps * scene.size():.3g}, over limits.max_box_steps = "
+                                    f"{limits.max_box_steps:g}; use fewer steps or boxes, or raise the limit "
+                                    "(limits: {max_box_steps: N})")
     for event in scene.events():
         if event.step > base.steps - model.window:
             raise src.error(("scene", *event.origin, "step"), f"step {event.step} is too late: events happen "
                             f"before the last {model.window} of the {base.steps} steps, which measure the "
                             "final motion of one set of boxes")
     return RunSpec(name, scene, solver_cls, solver_params, base.gravity, base.dt, base.steps, overrides, model)
+
+
+def _too_many_bodies(count: int, limits: Limits) -> str:
+    return (f"the scene has {count:,} boxes, over limits.max_bodies = {limits.max_bodies:,}; use fewer, or raise "
+            "the limit (limits: {max_bodies: N})")
 
 
 def _stepping(model: str) -> list[str]:
@@ -423,7 +451,7 @@ def build(src: Source) -> ExperimentSpec:
         outputs.append(cls(params))
     spec = ExperimentSpec(src.file, FsPath(src.file).stem, exp.description, runs, exp.limits, outputs=outputs,
                           source=src, resolved=_resolved(exp, runs, outputs), bench=exp.bench)
-    written: dict[str, int] = {}
+    written: list[tuple[str, int]] = []
     for i, output in enumerate(outputs):
         prefix: Path = ("outputs", i)
         if output.needs_runs and not runs:
@@ -436,10 +464,13 @@ def build(src: Source) -> ExperimentSpec:
                             f"{other.scene.model!r} (run {other.name!r})")
         output.check(spec, lambda path, msg, prefix=prefix: src.error(prefix + path, msg))
         confine(output, lambda path, msg, prefix=prefix: src.error(prefix + path, msg))
-        for name in output.files():
-            if name in written:
-                raise src.error(prefix, f"{name!r} is also written by outputs[{written[name]}]")
-            written[name] = i
+        written += [(name, i) for name in output.files()]
+    clash = clashes(written)
+    if clash is not None:
+        name, i, earlier, j, why = clash
+        other = src.mark(("outputs", j, path_key(outputs[j], earlier)))
+        path = ("outputs", i, path_key(outputs[i], name))
+        raise src.error(path, f"{why} outputs[{j}] (line {other.line}, column {other.col})")
     sizing.check(spec, lambda path, msg: src.error(path, msg))
     return spec
 

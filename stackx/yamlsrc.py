@@ -43,8 +43,8 @@ building the data would add to the nodes written in the text.
 """
 
 
-MAX_NODES = 500_000
-"""How many YAML nodes one document may hold as written (about 2 s and 125 MB to load with marks). The largest
+MAX_NODES = 200_000
+"""How many YAML nodes one document may hold as written (a few seconds and 50 MB to load with marks). The largest
 shipped config holds a few hundred; a scene of many boxes is generated (``stack: {count: ...}``), not listed."""
 
 MAX_DEPTH = 64
