@@ -29,6 +29,7 @@ from stackx.spec import Plan, RunSpec
 from stackx.yamlsrc import Mark, Path, Source, dotted, load_file, load_text
 
 RUN_KEYS = ("scene", "solver", "gravity", "dt", "steps")
+SIZE_KEYS = ("count", "rows")  # keys of a scene section that say how many boxes it generates
 NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
 FRACTION = r"^\s*\d+(\.\d*)?\s*/\s*\d+(\.\d*)?\s*$"  # dt: 1/60; also the schema's pattern (editors)
 StepSize = Annotated[float, Field(gt=0, le=10.0, allow_inf_nan=False)]
@@ -107,16 +108,66 @@ class ExperimentSpec(Plan):
 # ---------------------------------------------------------------------------- dotted paths and overrides
 
 
-def parse_key(text: str) -> Path:
-    """``scene.boxes[0].y`` or ``scene.boxes.0.y`` -> ``("scene", "boxes", 0, "y")``."""
+class Named(str):
+    """A list item chosen by name in a key (``outputs[frames]``), resolved to its index by ``select``."""
+
+
+NAMING_KEYS = ("render", "sink", "name", "path")
+"""The keys whose value names an item of a list (an output by its plugin or its file, a box by its name)."""
+
+
+def parse_key(text: str, *, named: bool = False) -> Path:
+    """``scene.boxes[0].y`` or ``scene.boxes.0.y`` -> ``("scene", "boxes", 0, "y")``; with ``named``, an item
+    may also be chosen by name: ``outputs[frames].count`` -> ``("outputs", Named("frames"), "count")``."""
     out: list[str | int] = []
-    for part in text.split("."):
-        m = re.fullmatch(r"([^\[\]]*)((?:\[\d+\])*)", part)
-        if not m or (not m.group(1) and not m.group(2)):
+    token = re.compile(r"\[([^\[\]]+)\]|([^.\[\]]+)")
+    at, dot = 0, True  # where the scan is; whether a name may start here (after a '.' or at the start)
+    while at < len(text):
+        m = token.match(text, at)
+        if m is None or (m.group(2) is not None and not dot):
             raise ValueError(f"malformed key {text!r}")
-        if m.group(1):
-            out.append(int(m.group(1)) if m.group(1).isdigit() else m.group(1))
-        out.extend(int(i) for i in re.findall(r"\[(\d+)\]", m.group(2)))
+        if m.group(1) is not None:
+            index = m.group(1).strip()
+            if not index.isdigit() and not (named and index):
+                raise ValueError(f"malformed key {text!r}")
+            out.append(int(index) if index.isdigit() else Named(index))
+        else:
+            out.append(int(m.group(2)) if m.group(2).isdigit() else m.group(2))
+        at, dot = m.end(), False
+        if at < len(text) and text[at] == ".":
+            at, dot = at + 1, True
+            if at == len(text):
+                raise ValueError(f"malformed key {text!r}")
+    if not out:
+        raise ValueError(f"malformed key {text!r}")
+    return tuple(out)
+
+
+def select(data: Any, path: Path) -> Path:
+    """``path`` with each ``Named`` item replaced by the index of the one item of its list that it names (by
+    ``NAMING_KEYS``: ``outputs[frames]`` is the output rendering ``frames``, ``outputs[stack.png]`` the one
+    writing ``stack.png``). Raises ``ValueError`` listing the names when none or several match."""
+    out: list[str | int] = []
+    node = data
+    for part in path:
+        if isinstance(part, Named):
+            where = dotted(tuple(out)) or "the config"
+            if not isinstance(node, list):
+                raise ValueError(f"{where} is not a list, so [{part}] names nothing")
+            names = [[str(item[k]) for k in NAMING_KEYS if isinstance(item, dict) and k in item] for item in node]
+            hits = [i for i, item_names in enumerate(names) if part in item_names]
+            listed = "; ".join(f"[{i}] " + " or ".join(n) for i, n in enumerate(names) if n) or "none has a name"
+            if len(hits) != 1:
+                what = "no item" if not hits else f"{len(hits)} items ({', '.join(f'[{i}]' for i in hits)})"
+                raise ValueError(f"{what} of {where} named {str(part)!r}; names: {listed}")
+            part = hits[0]
+        out.append(part)
+        if isinstance(node, dict) and isinstance(part, str):
+            node = node.get(part)
+        elif isinstance(node, list) and isinstance(part, int) and part < len(node):
+            node = node[part]
+        else:
+            node = None
     return tuple(out)
 
 
@@ -153,7 +204,8 @@ def _subtree_marks(src: Source, path: Path) -> dict[Path, Mark]:
 
 
 def apply_sets(src: Source, sets: list[str], notes: list[str] | None = None) -> Source:
-    """Apply ``--set key.path=value`` overrides (values parsed as YAML) to a loaded config.
+    """Apply ``--set key.path=value`` overrides (values parsed as YAML) to a loaded config. A list item is
+    chosen by index or by name (``outputs[2].count=all``, ``outputs[frames].count=all``; see ``select``).
 
     Switching a plugin (``--set solver.name=baumgarte``) keeps the section's keys that the new plugin accepts
     and drops the others, each named in ``notes``: the old solver's ``iterations`` means nothing to a solver
@@ -165,7 +217,7 @@ def apply_sets(src: Source, sets: list[str], notes: list[str] | None = None) -> 
         if not eq or not key.strip():
             raise ConfigError("expected key.path=value", file=where)
         try:
-            path = parse_key(key.strip())
+            path = select(out.data, parse_key(key.strip(), named=True))
         except ValueError as exc:
             raise ConfigError(str(exc), file=where) from None
         value = load_text(raw, where).data if raw.strip() else None
@@ -387,7 +439,8 @@ def _resolve_run(name: str, src: Source, overrides: dict[str, Any], sections: di
         scene_cls, scene_params = _plugin(registry.scenes, base.scene, "name", src, ("scene",))
         sections[scene_key] = scene = scene_cls(scene_params)
         if scene.size() > limits.max_bodies:
-            raise src.error(("scene",), _too_many_bodies(scene.size(), limits))
+            sizing_key = next((p for p in src.values if p[:1] == ("scene",) and p[-1] in SIZE_KEYS), ("scene",))
+            raise src.error(sizing_key, _too_many_bodies(scene.size(), limits))
     if solver_key not in sections:
         sections[solver_key] = _plugin(registry.solvers, base.solver, "name", src, ("solver",))
     scene, (solver_cls, solver_params) = sections[scene_key], sections[solver_key]
