@@ -104,6 +104,8 @@ def _odd_value(rng: random.Random) -> Any:
 def _mutate_data(rng: random.Random, data: Any) -> tuple[Any, str]:
     """A change of the loaded data: a value swapped, a key removed or added, a list emptied or grown."""
     paths = [p for p in _paths(data) if p]
+    if not paths:
+        return {"steps": _odd_value(rng)}, "empty config given a step count"
     path = rng.choice(paths)
     parent = _parent(data, path)
     op = rng.randrange(8)
@@ -138,6 +140,8 @@ def _mutate_data(rng: random.Random, data: Any) -> tuple[Any, str]:
 
 def _mutate_text(rng: random.Random, text: str) -> tuple[str, str]:
     """A change of the text itself: a tag, an alias bomb, a YAML 1.1 number, a byte, a cut."""
+    if not text:
+        text = "{}\n"
     lines = text.splitlines()
     valued = [i for i, ln in enumerate(lines) if re.match(r"^\s*(- )?[A-Za-z_0-9.]+: \S", ln)]
     op = rng.randrange(6)

@@ -261,7 +261,7 @@ def too_big(draw: st.DrawFn, base: dict[str, Any]) -> Case:
         return _case("too much work", data, ("steps",), ("steps",), "max_work")
     if kind == "bodies":
         data["limits"] = {"max_bodies": draw(st.integers(1, count - 1))}
-        return _case("too many bodies", data, ("scene",), ("scene",), "max_bodies")
+        return _case("too many bodies", data, ("scene", "stack", "count"), ("scene", "stack", "count"), "max_bodies")
     if kind == "box steps":
         data["limits"] = {"max_bodies": count, "max_box_steps": draw(floats(1, data["steps"] * count - 1))}
         return _case("too many box steps", data, ("steps",), ("steps",), "max_box_steps")
