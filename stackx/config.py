@@ -210,6 +210,7 @@ def apply_sets(src: Source, sets: list[str], notes: list[str] | None = None) -> 
     Switching a plugin (``--set solver.name=baumgarte``) keeps the section's keys that the new plugin accepts
     and drops the others, each named in ``notes``: the old solver's ``iterations`` means nothing to a solver
     without them, and refusing the switch would make every comparison a hand edit of the file."""
+    _check_mapping(src)  # the config's own error before any override's
     out = src.copy()
     for text in sets:
         key, eq, raw = text.partition("=")
@@ -485,10 +486,14 @@ def _stepping(model: str) -> list[str]:
     return names or ["none"]
 
 
-def build(src: Source) -> ExperimentSpec:
-    """Validate a loaded config completely, without running anything."""
+def _check_mapping(src: Source) -> None:
     if not isinstance(src.data, dict):
         raise src.error((), "a config is a mapping of keys (description, scene, solver, steps, outputs, ...)")
+
+
+def build(src: Source) -> ExperimentSpec:
+    """Validate a loaded config completely, without running anything."""
+    _check_mapping(src)
     exp = validate_model(ExperimentModel, src.data, src, ())
     runs: list[RunSpec] = []
     if exp.scene is not None or exp.solver is not None or exp.runs or exp.sweep:
