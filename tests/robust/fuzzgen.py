@@ -25,6 +25,8 @@ from typing import Any
 
 import yaml
 
+from tests.robust.yamlgen import paths as _paths
+
 REPO = Path(__file__).resolve().parents[2]
 BASES = ["configs/03-sink.yaml", "configs/04-fixed.yaml", "configs/05-iters.yaml", "configs/06-stack.yaml",
          "configs/examples/sor-stack.yaml", "configs/hard/load-removal.yaml", "configs/planar/ramp-slide.yaml",
@@ -60,17 +62,6 @@ class Case:
     base: str
     how: str
     data: bytes
-
-
-def _paths(node: Any, path: tuple[Any, ...] = ()) -> list[tuple[Any, ...]]:
-    out = [path]
-    if isinstance(node, dict):
-        for k, v in node.items():
-            out += _paths(v, path + (k,))
-    elif isinstance(node, list):
-        for i, v in enumerate(node):
-            out += _paths(v, path + (i,))
-    return out
 
 
 def _parent(data: Any, path: tuple[Any, ...]) -> Any:

@@ -34,6 +34,7 @@ from tests.conftest import CONFIGS, REPO
 
 from .yamlgen import Path as KeyPath
 from .yamlgen import dotted, emit
+from .yamlgen import paths as _paths
 
 EXAMPLES = 1200
 LINE = re.compile(r"^error: (?P<file>.+?):(?P<line>\d+):(?P<col>\d+):(?: (?P<key>[^\s:]+):)? (?P<msg>\S.*)$")
@@ -113,17 +114,6 @@ class Case:
     key: str | None  # the key the message must name (None: no key, e.g. a YAML syntax error)
     lines: tuple[int, int] | None  # the range the reported line must fall in (None: anywhere in the file)
     words: tuple[str, ...] = ()  # words the message must hold
-
-
-def _paths(node: Any, path: KeyPath = ()) -> list[KeyPath]:
-    out = [path]
-    if isinstance(node, dict):
-        for k, v in node.items():
-            out += _paths(v, path + (k,))
-    elif isinstance(node, list):
-        for i, v in enumerate(node):
-            out += _paths(v, path + (i,))
-    return out
 
 
 def _get(node: Any, path: KeyPath) -> Any:
