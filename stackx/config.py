@@ -226,12 +226,38 @@ def apply_sets(src: Source, sets: list[str], notes: list[str] | None = None) -> 
         try:
             _set(out, path, value, {(): mark})
         except KeyError as exc:
+            blocked = _blocked(out, path)
+            if blocked is not None:  # the config's own value is in the way: say where it is
+                kind = {list: "a list", dict: "a mapping"}.get(type(_get_at(out.data, blocked)), "a single value")
+                raise out.error(blocked, f"the config's value here is {kind}; {where} cannot reach inside it") \
+                    from None
             raise ConfigError(f"no such place in the config: {exc.args[0]}", file=where) from None
         if path in _SWITCHES and isinstance(value, str):
             dropped = _keep_accepted(out, path[:-1], _SWITCHES[path], value, where)
             if dropped and notes is not None:
                 notes.append(f"{where}: dropped {', '.join(dropped)} ({value!r} does not take them)")
     return out
+
+
+def _get_at(data: Any, path: Path) -> Any:
+    for part in path:
+        data = data[part]
+    return data
+
+
+def _blocked(src: Source, path: Path) -> Path | None:
+    """The first place on ``path`` whose value in the config is a scalar or list where a ``--set`` needs to go
+    inside a mapping (or a list too short), if the config wrote it; else None."""
+    node: Any = src.data
+    for i, part in enumerate(path):
+        ok = (isinstance(node, dict) and isinstance(part, str)) or \
+             (isinstance(node, list) and isinstance(part, int) and part < len(node))
+        if not ok:
+            return path[:i] if i and path[:i] in src.values else None
+        if isinstance(node, dict) and part not in node:
+            return None
+        node = node[part]
+    return None
 
 
 _SWITCHES: dict[Path, registry.Registry[Any]] = {("solver", "name"): registry.solvers,
