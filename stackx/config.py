@@ -10,12 +10,13 @@ from __future__ import annotations
 
 import copy
 import itertools
+import math
 import re
 import reprlib
 from dataclasses import dataclass, field
 from fractions import Fraction
 from pathlib import Path as FsPath
-from typing import Annotated, Any, NamedTuple
+from typing import Annotated, Any, Iterator, NamedTuple
 
 from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, StringConstraints, ValidationError, field_validator
 
@@ -23,11 +24,12 @@ from stackx import registry, sizing
 from stackx.bench.case import BenchSection
 from stackx.errors import ConfigError
 from stackx.limits import Limits
-from stackx.outputs import Output, Renderer, confine
+from stackx.outputs import Output, Renderer, clashes, confine, path_key
 from stackx.spec import Plan, RunSpec
 from stackx.yamlsrc import Mark, Path, Source, dotted, load_file, load_text
 
 RUN_KEYS = ("scene", "solver", "gravity", "dt", "steps")
+SIZE_KEYS = ("count", "rows")  # keys of a scene section that say how many boxes it generates
 NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
 FRACTION = r"^\s*\d+(\.\d*)?\s*/\s*\d+(\.\d*)?\s*$"  # dt: 1/60; also the schema's pattern (editors)
 StepSize = Annotated[float, Field(gt=0, le=10.0, allow_inf_nan=False)]
@@ -106,16 +108,66 @@ class ExperimentSpec(Plan):
 # ---------------------------------------------------------------------------- dotted paths and overrides
 
 
-def parse_key(text: str) -> Path:
-    """``scene.boxes[0].y`` or ``scene.boxes.0.y`` -> ``("scene", "boxes", 0, "y")``."""
+class Named(str):
+    """A list item chosen by name in a key (``outputs[frames]``), resolved to its index by ``select``."""
+
+
+NAMING_KEYS = ("render", "sink", "name", "path")
+"""The keys whose value names an item of a list (an output by its plugin or its file, a box by its name)."""
+
+
+def parse_key(text: str, *, named: bool = False) -> Path:
+    """``scene.boxes[0].y`` or ``scene.boxes.0.y`` -> ``("scene", "boxes", 0, "y")``; with ``named``, an item
+    may also be chosen by name: ``outputs[frames].count`` -> ``("outputs", Named("frames"), "count")``."""
     out: list[str | int] = []
-    for part in text.split("."):
-        m = re.fullmatch(r"([^\[\]]*)((?:\[\d+\])*)", part)
-        if not m or (not m.group(1) and not m.group(2)):
+    token = re.compile(r"\[([^\[\]]+)\]|([^.\[\]]+)")
+    at, dot = 0, True  # where the scan is; whether a name may start here (after a '.' or at the start)
+    while at < len(text):
+        m = token.match(text, at)
+        if m is None or (m.group(2) is not None and not dot):
             raise ValueError(f"malformed key {text!r}")
-        if m.group(1):
-            out.append(int(m.group(1)) if m.group(1).isdigit() else m.group(1))
-        out.extend(int(i) for i in re.findall(r"\[(\d+)\]", m.group(2)))
+        if m.group(1) is not None:
+            index = m.group(1).strip()
+            if not index.isdigit() and not (named and index):
+                raise ValueError(f"malformed key {text!r}")
+            out.append(int(index) if index.isdigit() else Named(index))
+        else:
+            out.append(int(m.group(2)) if m.group(2).isdigit() else m.group(2))
+        at, dot = m.end(), False
+        if at < len(text) and text[at] == ".":
+            at, dot = at + 1, True
+            if at == len(text):
+                raise ValueError(f"malformed key {text!r}")
+    if not out:
+        raise ValueError(f"malformed key {text!r}")
+    return tuple(out)
+
+
+def select(data: Any, path: Path) -> Path:
+    """``path`` with each ``Named`` item replaced by the index of the one item of its list that it names (by
+    ``NAMING_KEYS``: ``outputs[frames]`` is the output rendering ``frames``, ``outputs[stack.png]`` the one
+    writing ``stack.png``). Raises ``ValueError`` listing the names when none or several match."""
+    out: list[str | int] = []
+    node = data
+    for part in path:
+        if isinstance(part, Named):
+            where = dotted(tuple(out)) or "the config"
+            if not isinstance(node, list):
+                raise ValueError(f"{where} is not a list, so [{part}] names nothing")
+            names = [[str(item[k]) for k in NAMING_KEYS if isinstance(item, dict) and k in item] for item in node]
+            hits = [i for i, item_names in enumerate(names) if part in item_names]
+            listed = "; ".join(f"[{i}] " + " or ".join(n) for i, n in enumerate(names) if n) or "none has a name"
+            if len(hits) != 1:
+                what = "no item" if not hits else f"{len(hits)} items ({', '.join(f'[{i}]' for i in hits)})"
+                raise ValueError(f"{what} of {where} named {str(part)!r}; names: {listed}")
+            part = hits[0]
+        out.append(part)
+        if isinstance(node, dict) and isinstance(part, str):
+            node = node.get(part)
+        elif isinstance(node, list) and isinstance(part, int) and part < len(node):
+            node = node[part]
+        else:
+            node = None
     return tuple(out)
 
 
@@ -152,11 +204,13 @@ def _subtree_marks(src: Source, path: Path) -> dict[Path, Mark]:
 
 
 def apply_sets(src: Source, sets: list[str], notes: list[str] | None = None) -> Source:
-    """Apply ``--set key.path=value`` overrides (values parsed as YAML) to a loaded config.
+    """Apply ``--set key.path=value`` overrides (values parsed as YAML) to a loaded config. A list item is
+    chosen by index or by name (``outputs[2].count=all``, ``outputs[frames].count=all``; see ``select``).
 
     Switching a plugin (``--set solver.name=baumgarte``) keeps the section's keys that the new plugin accepts
     and drops the others, each named in ``notes``: the old solver's ``iterations`` means nothing to a solver
     without them, and refusing the switch would make every comparison a hand edit of the file."""
+    _check_mapping(src)  # the config's own error before any override's
     out = src.copy()
     for text in sets:
         key, eq, raw = text.partition("=")
@@ -164,7 +218,7 @@ def apply_sets(src: Source, sets: list[str], notes: list[str] | None = None) -> 
         if not eq or not key.strip():
             raise ConfigError("expected key.path=value", file=where)
         try:
-            path = parse_key(key.strip())
+            path = select(out.data, parse_key(key.strip(), named=True))
         except ValueError as exc:
             raise ConfigError(str(exc), file=where) from None
         value = load_text(raw, where).data if raw.strip() else None
@@ -172,12 +226,38 @@ def apply_sets(src: Source, sets: list[str], notes: list[str] | None = None) -> 
         try:
             _set(out, path, value, {(): mark})
         except KeyError as exc:
+            blocked = _blocked(out, path)
+            if blocked is not None:  # the config's own value is in the way: say where it is
+                kind = {list: "a list", dict: "a mapping"}.get(type(_get_at(out.data, blocked)), "a single value")
+                raise out.error(blocked, f"the config's value here is {kind}; {where} cannot reach inside it") \
+                    from None
             raise ConfigError(f"no such place in the config: {exc.args[0]}", file=where) from None
         if path in _SWITCHES and isinstance(value, str):
             dropped = _keep_accepted(out, path[:-1], _SWITCHES[path], value, where)
             if dropped and notes is not None:
                 notes.append(f"{where}: dropped {', '.join(dropped)} ({value!r} does not take them)")
     return out
+
+
+def _get_at(data: Any, path: Path) -> Any:
+    for part in path:
+        data = data[part]
+    return data
+
+
+def _blocked(src: Source, path: Path) -> Path | None:
+    """The first place on ``path`` whose value in the config is a scalar or list where a ``--set`` needs to go
+    inside a mapping (or a list too short), if the config wrote it; else None."""
+    node: Any = src.data
+    for i, part in enumerate(path):
+        ok = (isinstance(node, dict) and isinstance(part, str)) or \
+             (isinstance(node, list) and isinstance(part, int) and part < len(node))
+        if not ok:
+            return path[:i] if i and path[:i] in src.values else None
+        if isinstance(node, dict) and part not in node:
+            return None
+        node = node[part]
+    return None
 
 
 _SWITCHES: dict[Path, registry.Registry[Any]] = {("solver", "name"): registry.solvers,
@@ -297,17 +377,44 @@ def _override(src: Source, key: str, value: Any, origin: Path, key_origin: Path)
     return _Override(key, path, value, origin, _subtree_marks(src, origin))
 
 
-def _variants(exp: ExperimentModel, src: Source) -> list[tuple[str, Source, dict[str, Any]]]:
-    """The runs of an experiment: (name, the run's part of the config with overrides applied, overrides)."""
+def _variants(exp: ExperimentModel, src: Source) -> Iterator[tuple[str, Source, dict[str, Any]]]:
+    """The runs of an experiment: (name, the run's part of the config with overrides applied, overrides), made
+    one at a time. A sweep's size is known from its grid's shape and checked against ``limits.max_runs``
+    before the first run is made."""
     if exp.runs is not None and exp.sweep is not None:
         raise src.error(("sweep",), "give either 'runs' or 'sweep', not both", key=True)
-    plans: list[tuple[str, tuple[_Override, ...]]] = []
+    if exp.sweep is not None:
+        size = math.prod(len(values) for values in exp.sweep.grid.values())
+        if size > exp.limits.max_runs:
+            shape = " x ".join(str(len(values)) for values in exp.sweep.grid.values())
+            raise src.error(("sweep", "grid"), f"the grid makes {shape} = {size:,} runs, over limits.max_runs = "
+                                               f"{exp.limits.max_runs:,}; use fewer values, or raise the limit "
+                                               "(limits: {max_runs: N})")
+    base = _run_part(src)
+    seen: set[str] = set()
+    for name, sets in _plans(exp, src):
+        if not NAME.match(name):
+            raise src.error(("sweep", "name"), f"run name {name!r} is not letters, digits and _; change the template")
+        if name in seen:
+            raise src.error(("sweep", "name"), f"two runs are named {name!r}; put every grid key in the name")
+        seen.add(name)
+        variant = base.copy()
+        for o in sets:
+            try:
+                _set(variant, o.path, o.value, o.marks)
+            except KeyError as exc:
+                raise src.error(o.origin, f"no such place in the config: {exc.args[0]}", key=True) from None
+        yield name, variant, {o.key: o.value for o in sets}
+
+
+def _plans(exp: ExperimentModel, src: Source) -> Iterator[tuple[str, tuple[_Override, ...]]]:
+    """Each run's name and overrides, in order: the named ``runs``, the ``sweep``'s grid points (last key
+    fastest), or the config's one run ``main``."""
     if exp.runs is not None:
         if not exp.runs:
             raise src.error(("runs",), "'runs' is empty")
         for name, sets in exp.runs.items():
-            plans.append((name, tuple(_override(src, k, v, ("runs", name, k), ("runs", name, k))
-                                      for k, v in sets.items())))
+            yield name, tuple(_override(src, k, v, ("runs", name, k), ("runs", name, k)) for k, v in sets.items())
     elif exp.sweep is not None:
         options = []  # per grid key, one override per value: each key is checked once, not once per run
         for k, values in exp.sweep.grid.items():
@@ -320,25 +427,9 @@ def _variants(exp: ExperimentModel, src: Source) -> list[tuple[str, Source, dict
             except KeyError as exc:
                 raise src.error(("sweep", "name"), f"unknown field {{{exc.args[0]}}}; allowed: "
                                                    f"{', '.join('{' + k + '}' for k in fill)}") from None
-            plans.append((name, sets))
+            yield name, sets
     else:
-        plans.append(("main", ()))
-    base = _run_part(src)
-    out, seen = [], set()
-    for name, sets in plans:
-        if not NAME.match(name):
-            raise src.error(("sweep", "name"), f"run name {name!r} is not letters, digits and _; change the template")
-        if name in seen:
-            raise src.error(("sweep", "name"), f"two runs are named {name!r}; put every grid key in the name")
-        seen.add(name)
-        variant = base.copy()
-        for o in sets:
-            try:
-                _set(variant, o.path, o.value, o.marks)
-            except KeyError as exc:
-                raise src.error(o.origin, f"no such place in the config: {exc.args[0]}", key=True) from None
-        out.append((name, variant, {o.key: o.value for o in sets}))
-    return out
+        yield "main", ()
 
 
 def _run_part(src: Source) -> Source:
@@ -367,9 +458,16 @@ def _resolve_run(name: str, src: Source, overrides: dict[str, Any], sections: di
         missing = "scene" if base.scene is None else "solver"
         raise src.error((missing,), f"a run needs a {missing!r} section")
     scene_key, solver_key = f"scene {base.scene!r}", f"solver {base.solver!r}"
+    limits = exp.limits
     if scene_key not in sections:
+        for key, value in base.scene.items():  # a listed scene is counted before its boxes are validated
+            if isinstance(value, list) and len(value) > limits.max_bodies:
+                raise src.error(("scene", key), _too_many_bodies(len(value), limits))
         scene_cls, scene_params = _plugin(registry.scenes, base.scene, "name", src, ("scene",))
-        sections[scene_key] = scene_cls(scene_params)
+        sections[scene_key] = scene = scene_cls(scene_params)
+        if scene.size() > limits.max_bodies:
+            sizing_key = next((p for p in src.values if p[:1] == ("scene",) and p[-1] in SIZE_KEYS), ("scene",))
+            raise src.error(sizing_key, _too_many_bodies(scene.size(), limits))
     if solver_key not in sections:
         sections[solver_key] = _plugin(registry.solvers, base.solver, "name", src, ("solver",))
     scene, (solver_cls, solver_params) = sections[scene_key], sections[solver_key]
@@ -383,12 +481,22 @@ def _resolve_run(name: str, src: Source, overrides: dict[str, Any], sections: di
                                             f"solvers of {scene.model!r}: {', '.join(_stepping(scene.model))}")
     if base.steps == 0:
         raise src.error(("steps",), "a run needs 'steps' > 0")
+    if base.steps * scene.size() > limits.max_box_steps:
+        raise src.error(("steps",), f"run {name!r}: {base.steps:,} steps x {scene.size():,} boxes = "
+                                    f"{base.steps * scene.size():.3g}, over limits.max_box_steps = "
+                                    f"{limits.max_box_steps:g}; use fewer steps or boxes, or raise the limit "
+                                    "(limits: {max_box_steps: N})")
     for event in scene.events():
         if event.step > base.steps - model.window:
             raise src.error(("scene", *event.origin, "step"), f"step {event.step} is too late: events happen "
                             f"before the last {model.window} of the {base.steps} steps, which measure the "
                             "final motion of one set of boxes")
     return RunSpec(name, scene, solver_cls, solver_params, base.gravity, base.dt, base.steps, overrides, model)
+
+
+def _too_many_bodies(count: int, limits: Limits) -> str:
+    return (f"the scene has {count:,} boxes, over limits.max_bodies = {limits.max_bodies:,}; use fewer, or raise "
+            "the limit (limits: {max_bodies: N})")
 
 
 def _stepping(model: str) -> list[str]:
@@ -404,10 +512,14 @@ def _stepping(model: str) -> list[str]:
     return names or ["none"]
 
 
-def build(src: Source) -> ExperimentSpec:
-    """Validate a loaded config completely, without running anything."""
+def _check_mapping(src: Source) -> None:
     if not isinstance(src.data, dict):
         raise src.error((), "a config is a mapping of keys (description, scene, solver, steps, outputs, ...)")
+
+
+def build(src: Source) -> ExperimentSpec:
+    """Validate a loaded config completely, without running anything."""
+    _check_mapping(src)
     exp = validate_model(ExperimentModel, src.data, src, ())
     runs: list[RunSpec] = []
     if exp.scene is not None or exp.solver is not None or exp.runs or exp.sweep:
@@ -423,7 +535,7 @@ def build(src: Source) -> ExperimentSpec:
         outputs.append(cls(params))
     spec = ExperimentSpec(src.file, FsPath(src.file).stem, exp.description, runs, exp.limits, outputs=outputs,
                           source=src, resolved=_resolved(exp, runs, outputs), bench=exp.bench)
-    written: dict[str, int] = {}
+    written: list[tuple[str, int]] = []
     for i, output in enumerate(outputs):
         prefix: Path = ("outputs", i)
         if output.needs_runs and not runs:
@@ -436,10 +548,13 @@ def build(src: Source) -> ExperimentSpec:
                             f"{other.scene.model!r} (run {other.name!r})")
         output.check(spec, lambda path, msg, prefix=prefix: src.error(prefix + path, msg))
         confine(output, lambda path, msg, prefix=prefix: src.error(prefix + path, msg))
-        for name in output.files():
-            if name in written:
-                raise src.error(prefix, f"{name!r} is also written by outputs[{written[name]}]")
-            written[name] = i
+        written += [(name, i) for name in output.files()]
+    clash = clashes(written)
+    if clash is not None:
+        name, i, earlier, j, why = clash
+        other = src.mark(("outputs", j, path_key(outputs[j], earlier)))
+        path = ("outputs", i, path_key(outputs[i], name))
+        raise src.error(path, f"{why} outputs[{j}] (line {other.line}, column {other.col})")
     sizing.check(spec, lambda path, msg: src.error(path, msg))
     return spec
 

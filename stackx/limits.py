@@ -27,6 +27,18 @@ class Limits(BaseModel):
         4096.0, gt=0, allow_inf_nan=False,
         description="most memory (MiB) the recorded states of one experiment may take (states kept for "
                     "frames, events and the final motion window, for every run and box)")
+    max_bodies: int = Field(
+        10_000, gt=0, description="most boxes one run's scene may hold (listed or generated); the largest shipped "
+                                  "scene has 1,000")
+    max_box_steps: float = Field(
+        1e9, gt=0, allow_inf_nan=False,
+        description="most steps x boxes one run may ask for: 1e9 is minutes to hours of stepping; the largest "
+                    "shipped case (recovery-1000) asks for 1.2e7")
+    max_frames: int = Field(
+        10_000, gt=0, description="most pictures one renderer may draw (each is a recorded state and a file)")
+    max_runs: int = Field(
+        10_000, gt=0, description="most runs one experiment may have: the number of points of a sweep's grid "
+                                  "(the product of its lists' lengths), checked before any run is made")
     max_work: float = Field(
         1e12, gt=0, allow_inf_nan=False,
         description="most box-steps times solver passes (iterations x substeps) one experiment may ask for; "

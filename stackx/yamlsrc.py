@@ -3,12 +3,22 @@
 Configs are edited by hand, so every error must point at a line and column. PyYAML's composer keeps a mark
 on each node; this module turns the node tree into plain Python data plus a table from key paths to marks.
 Duplicate keys, which PyYAML silently lets the last one win, are refused, and so are aliases that would make a
-few hundred bytes expand into billions of values (see ``MAX_ALIAS_NODES``).
+few hundred bytes expand into billions of values (see ``MAX_ALIAS_NODES``), documents of more than
+``MAX_NODES`` values or nested deeper than ``MAX_DEPTH``.
+
+Plain scalars are read by the YAML 1.2 core schema, not PyYAML's YAML 1.1: ``1:30`` is the text "1:30", not
+the base-60 number 90; ``010`` is ten, not eight; ``0x1F``, ``0o17``, ``0b101``, ``yes``, ``on`` and dates are
+text (a number field then refuses them at their position). Digit separators (``100_000``) are kept, as
+Python writes them. An integer longer than ``MAX_DIGITS`` digits is refused before it is converted. Explicit
+tags are refused except the plain ones (``!!str``, ``!!int``, ``!!float``, ``!!bool``, ``!!null``, ``!!seq``,
+``!!map``), whose text must then read as that type: ``!!int x`` is an error at its position.
 """
 
 from __future__ import annotations
 
 import copy
+import math
+import re
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -31,6 +41,79 @@ no config of any size is refused for what it writes out. Only what aliases add i
 over the aliases as written, of the nodes each one names (anchors inside anchors included), which is what
 building the data would add to the nodes written in the text.
 """
+
+
+MAX_NODES = 200_000
+"""How many YAML nodes one document may hold as written (a few seconds and 50 MB to load with marks). The largest
+shipped config holds a few hundred; a scene of many boxes is generated (``stack: {count: ...}``), not listed."""
+
+MAX_DEPTH = 64
+"""How deeply mappings and lists may nest; configs use five or six levels."""
+
+MAX_DIGITS = 100
+"""Most digits an integer may have: ten times more than any count or step number needs, and far below the
+length at which converting text to a number gets slow or is refused by Python (4,300 digits)."""
+
+_TAG = "tag:yaml.org,2002:"
+_INT = re.compile(r"[-+]?[0-9][0-9_]*")
+_FLOAT = re.compile(r"[-+]?(?:\.[0-9][0-9_]*|[0-9][0-9_]*(?:\.[0-9_]*)?)(?:[eE][-+]?[0-9]+)?")
+_INF = re.compile(r"[-+]?\.(?:inf|Inf|INF)")
+_NAN = re.compile(r"\.(?:nan|NaN|NAN)")
+_BOOL = {"true": True, "True": True, "TRUE": True, "false": False, "False": False, "FALSE": False}
+_NULL = ("", "~", "null", "Null", "NULL")
+PLAIN_TAGS = {_TAG + name for name in ("str", "int", "float", "bool", "null", "seq", "map", "merge")}
+
+
+def scalar_problem(tag: str, text: str) -> str | None:
+    """Why the scalar ``text`` cannot be read as ``tag`` (None when it can): a tag that is not a plain one, text
+    that is not of the tag's type, or an integer too long to convert safely."""
+    name = tag.removeprefix(_TAG) if tag.startswith(_TAG) else None
+    if tag not in PLAIN_TAGS:
+        return f"YAML tag {tag if name is None else '!!' + name!r} is not supported; write plain values"
+    if name == "int":
+        if not _INT.fullmatch(text):
+            return f"!!int {text!r} is not a whole number"
+    elif name == "float":
+        if not (_FLOAT.fullmatch(text) or _INF.fullmatch(text) or _NAN.fullmatch(text)):
+            return f"!!float {text!r} is not a number"
+    elif name == "bool" and text not in _BOOL:
+        return f"!!bool {text!r} is not true or false"
+    elif name == "null" and text not in _NULL:
+        return f"!!null {text!r} is not empty, ~ or null"
+    if name in ("int", "float") and _INT.fullmatch(text) and sum(c.isdigit() for c in text) > MAX_DIGITS:
+        return f"a number of {sum(c.isdigit() for c in text):,} digits; at most {MAX_DIGITS} are read"
+    return None
+
+
+def _construct_int(loader: yaml.SafeLoader, node: yaml.ScalarNode) -> int:
+    _refuse(node, "int")
+    return int(node.value.replace("_", ""))
+
+
+def _construct_float(loader: yaml.SafeLoader, node: yaml.ScalarNode) -> float:
+    _refuse(node, "float")
+    text = node.value.replace("_", "")
+    if _INF.fullmatch(text):
+        return -math.inf if text.startswith("-") else math.inf
+    if _NAN.fullmatch(text):
+        return math.nan
+    return float(text)  # never raises: digits were checked, and text too large reads as inf
+
+
+def _construct_bool(loader: yaml.SafeLoader, node: yaml.ScalarNode) -> bool:
+    _refuse(node, "bool")
+    return _BOOL[node.value]
+
+
+def _construct_null(loader: yaml.SafeLoader, node: yaml.ScalarNode) -> None:
+    _refuse(node, "null")
+    return None
+
+
+def _refuse(node: yaml.ScalarNode, name: str) -> None:
+    problem = scalar_problem(_TAG + name, node.value)
+    if problem:
+        raise yaml.constructor.ConstructorError(None, None, problem, node.start_mark)
 
 
 @dataclass(frozen=True)
@@ -94,8 +177,25 @@ class _Loader(yaml.SafeLoader):
         self.file = file
         self.sizes: dict[int, int] = {}  # id of a composed node -> how many nodes it expands to
         self.added = 0  # nodes added by the aliases composed so far
+        self.written = 0  # nodes composed from the text
+        self.depth = 0  # how many collections enclose the node being composed
 
     def compose_node(self, parent: yaml.Node | None, index: Any) -> yaml.Node:
+        mark = self.peek_event().start_mark
+        where = {"file": self.file, "line": mark.line + 1, "col": mark.column + 1}
+        self.written += 1
+        if self.written > MAX_NODES:
+            raise ConfigError(f"a config holds at most {MAX_NODES:,} YAML values; generate large scenes "
+                              "(stack: {count: N}) instead of listing them", **where)
+        if self.depth >= MAX_DEPTH:
+            raise ConfigError(f"YAML nested more than {MAX_DEPTH} levels deep", **where)
+        self.depth += 1
+        try:
+            return self._compose_counted(parent, index)
+        finally:
+            self.depth -= 1
+
+    def _compose_counted(self, parent: yaml.Node | None, index: Any) -> yaml.Node:
         if self.check_event(yaml.AliasEvent):
             event = self.peek_event()
             target = self.anchors.get(event.anchor)
@@ -121,6 +221,22 @@ class _Loader(yaml.SafeLoader):
             raise ConfigError(f"alias *{event.anchor} stands for {size:,} YAML nodes, and the aliases up to here "
                               f"add {self.added:,}; aliases may add at most {MAX_ALIAS_NODES:,} nodes to a config",
                               **where)
+
+
+# YAML 1.2 core schema for plain scalars (see the module's docstring), in place of PyYAML's YAML 1.1 resolvers
+_Loader.yaml_implicit_resolvers = {}
+for _tag, _pattern, _first in (
+        ("bool", r"^(?:true|True|TRUE|false|False|FALSE)$", "tTfF"),
+        ("int", r"^[-+]?[0-9][0-9_]*$", "-+0123456789"),
+        ("float", r"^(?:[-+]?(?:\.[0-9][0-9_]*|[0-9][0-9_]*(?:\.[0-9_]*)?)(?:[eE][-+]?[0-9]+)?"
+                  r"|[-+]?\.(?:inf|Inf|INF)|\.(?:nan|NaN|NAN))$", "-+.0123456789"),
+        ("null", r"^(?:~|null|Null|NULL|)$", ["~", "n", "N", ""]),
+        ("merge", r"^(?:<<)$", "<")):
+    _Loader.add_implicit_resolver(_TAG + _tag, re.compile(_pattern), list(_first))
+for _name, _fn in (("int", _construct_int), ("float", _construct_float), ("bool", _construct_bool),
+                   ("null", _construct_null)):
+    _Loader.add_constructor(_TAG + _name, _fn)
+_Loader.add_constructor(_TAG + "merge", lambda loader, node: node.value)  # "<<" as a value, not a key: text
 
 
 def load_text(text: str, file: str) -> Source:
@@ -196,4 +312,8 @@ def _build(loader: _Loader, node: yaml.Node, path: Path, src: Source) -> Any:
         return out
     if isinstance(node, yaml.SequenceNode):
         return [_build(loader, item, path + (i,), src) for i, item in enumerate(node.value)]
+    problem = scalar_problem(node.tag, node.value)
+    if problem:
+        m = _mark(src.file, node)
+        raise ConfigError(problem, file=src.file, line=m.line, col=m.col, key=dotted(path) or None)
     return loader.construct_object(node, deep=True)

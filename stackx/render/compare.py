@@ -29,7 +29,7 @@ from typing import Any
 
 from pydantic import Field
 
-from stackx.outputs import Renderer
+from stackx.outputs import Renderer, template_problem
 from stackx.registry import renderers
 from stackx.render.draw import DRAWN, describe, framed, picture
 from stackx.render.player import Panel, controlled_player_html
@@ -91,7 +91,10 @@ class Compare(Renderer):
             raise fail(("runs",) if self.params.runs else (), f"runs {first.name!r} (dt {first.dt:g} s) and "
                        f"{other.name!r} (dt {other.dt:g} s) step differently: frames in step need one dt")
         shortest = min(chosen, key=lambda r: r.steps)
-        self.count = frame_count(self.params, shortest.steps, fail)
+        self.count = frame_count(self.params, shortest.steps, fail, spec.limits.max_frames)
+        problem = template_problem(self.params.frames, {"run", "index"})
+        if problem:
+            raise fail(("frames",), problem)
         try:
             names = [n for run in self.runs for n in self.names(run)]
         except (KeyError, IndexError, ValueError) as exc:

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 from pydantic import Field
 
-from stackx.outputs import Renderer
+from stackx.outputs import Renderer, template_problem
 from stackx.registry import renderers
 from stackx.render.pick import run_name
 from stackx.render.player import Panel, controlled_player_html, player_html
@@ -50,7 +50,10 @@ class Frames(Renderer):
 
     def check(self, spec, fail) -> None:  # type: ignore[no-untyped-def]
         self.run = run_name(spec, self.params.run, fail)
-        self.count = frame_count(self.params, spec.run(self.run).steps, fail)
+        self.count = frame_count(self.params, spec.run(self.run).steps, fail, spec.limits.max_frames)
+        problem = template_problem(self.params.path, {"index"})
+        if problem:
+            raise fail(("path",), problem)
         try:
             names = self.names()
         except (KeyError, IndexError, ValueError) as exc:

@@ -39,12 +39,21 @@ class TimelineParams(Styled):
     interval_ms: int = Field(250, gt=0, le=60_000, description="time each frame is shown in the player at 1x speed")
 
 
-def frame_count(params: TimelineParams, steps: int, fail: Fail) -> int:
-    """The number of frames of a run of ``steps`` steps; a last frame past the end is refused at ``count``."""
+def frame_count(params: TimelineParams, steps: int, fail: Fail, limit: int = MAX_FRAMES) -> int:
+    """The number of frames of a run of ``steps`` steps; a last frame past the end, or more frames than
+    ``limit`` (``limits.max_frames``), is refused at ``count``."""
     if params.start > steps:
         raise fail(("start",), f"the first frame would be at step {params.start}, past the end of the run ({steps})")
     if params.count == "all":
-        return (steps - params.start) // params.every + 1
+        count = (steps - params.start) // params.every + 1
+        if count > limit:
+            raise fail(("count",), f"'all' is {count:,} frames (every {params.every} steps from {params.start} to "
+                                   f"step {steps}), over limits.max_frames = {limit:,}; draw fewer (a larger "
+                                   "'every' or a number), or raise the limit (limits: {max_frames: N})")
+        return count
+    if params.count > limit:
+        raise fail(("count",), f"{params.count:,} frames, over limits.max_frames = {limit:,}; draw fewer, or raise "
+                               "the limit (limits: {max_frames: N})")
     last = params.start + (params.count - 1) * params.every
     if last > steps:
         raise fail(("count",), f"the last frame would be at step {last}, past the end of the run ({steps})")

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 from pydantic import BaseModel, ConfigDict, Field, field_validator
 
+from stackx.errors import RunError
 from stackx.expr import ExprError, Known, evaluate
 from stackx.outputs import Sink
 from stackx.registry import sinks
@@ -55,5 +56,10 @@ class KeyValue(Sink):
 
     def write(self, result, out) -> None:  # type: ignore[no-untyped-def]
         runs, measures = self._runs(result.spec), {r.name: r.measures for r in result.runs}
-        lines = [f"{key}={evaluate(text, runs, measures)!r}" for key, text in self.params.values.items()]
+        lines = []
+        for key, text in self.params.values.items():
+            try:
+                lines.append(f"{key}={evaluate(text, runs, measures)!r}")
+            except ExprError as exc:  # what the measures decide: a division by a measure that came out 0
+                raise RunError(f"{self.params.path}: value {key!r}: {exc}") from None
         out.write_text(self.params.path, "\n".join(lines) + "\n")

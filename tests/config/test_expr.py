@@ -43,3 +43,35 @@ def test_single_run_needs_no_prefix() -> None:
 def test_refused(text: str, words: str) -> None:
     with pytest.raises(ExprError, match=words.replace("(", r"\(").replace("[", r"\[")):
         evaluate(text, RUNS)
+
+
+@pytest.mark.parametrize("text, words", [
+    ("1/0", "division by zero"),
+    ("a.y[0] / (2 - 2)", "('2 - 2' is 0)"),
+    ("abs(1, 2)", "abs() takes exactly 1 value, not 2"),
+    ("abs()", "abs() takes exactly 1 value, not 0"),
+    ("max()", "max() takes at least 1 value, not 0"),
+    ("1e308 * 10", "overflows"),
+    ("1e400", "too large"),
+    ("1" + "0" * 400, "too large"),
+    ("+".join(["1"] * 3000), "at most 1,000 characters"),
+    ("+".join(["1"] * 150), "nested more than 100"),
+    ("-" * 200 + "1", "nested more than 100"),
+    ("min(*a.y)", "not allowed"),
+    ("a.y[0]\x00", "not an expression"),
+])
+def test_refused_at_load_whatever_the_measures(text: str, words: str) -> None:
+    with pytest.raises(ExprError) as info:
+        evaluate(text, RUNS)
+    assert words in str(info.value)
+
+
+def test_a_measured_zero_divisor_is_named_when_computed() -> None:
+    assert evaluate("a.y[0] / b.depth[1]", RUNS) == 0.0  # unknown at load: accepted
+    with pytest.raises(ExprError, match=r"division by zero in 'a.y\[0\] / b.depth\[1\]' \('b.depth\[1\]' is 0\)"):
+        evaluate("a.y[0] / b.depth[1]", RUNS, MEASURES)
+
+
+def test_arithmetic_within_bounds_still_evaluates() -> None:
+    assert evaluate("+".join(["1"] * 100), RUNS) == 100.0
+    assert evaluate("max(a.y[0])", RUNS, MEASURES) == 1.0

@@ -34,6 +34,7 @@ from tests.conftest import CONFIGS, REPO
 
 from .yamlgen import Path as KeyPath
 from .yamlgen import dotted, emit
+from .yamlgen import paths as _paths
 
 EXAMPLES = 1200
 LINE = re.compile(r"^error: (?P<file>.+?):(?P<line>\d+):(?P<col>\d+):(?: (?P<key>[^\s:]+):)? (?P<msg>\S.*)$")
@@ -113,17 +114,6 @@ class Case:
     key: str | None  # the key the message must name (None: no key, e.g. a YAML syntax error)
     lines: tuple[int, int] | None  # the range the reported line must fall in (None: anywhere in the file)
     words: tuple[str, ...] = ()  # words the message must hold
-
-
-def _paths(node: Any, path: KeyPath = ()) -> list[KeyPath]:
-    out = [path]
-    if isinstance(node, dict):
-        for k, v in node.items():
-            out += _paths(v, path + (k,))
-    elif isinstance(node, list):
-        for i, v in enumerate(node):
-            out += _paths(v, path + (i,))
-    return out
 
 
 def _get(node: Any, path: KeyPath) -> Any:
@@ -249,13 +239,25 @@ def too_big(draw: st.DrawFn, base: dict[str, Any]) -> Case:
     data["sweep"] = {"grid": {"solver.iterations": draw(st.lists(st.integers(1, 50), min_size=3, max_size=6,
                                                                   unique=True))}}
     data["outputs"] = [{"sink": "metrics", "path": "big.json"}]
-    if draw(st.booleans()):
-        data["limits"] = {"max_memory_mb": draw(floats(1, 2000))}
+    roomy = {"max_bodies": 10**7, "max_box_steps": 1e18}  # only the limit under test can refuse
+    kind = draw(st.sampled_from(["memory", "work", "bodies", "box steps", "runs"]))
+    if kind == "memory":
+        data["limits"] = {**roomy, "max_memory_mb": draw(floats(1, 2000))}
         return _case("too big for memory", data, ("scene",), ("scene",), "max_memory_mb")
     data["steps"] = draw(st.integers(100_000, 100_000_000))
-    data["scene"]["stack"]["count"] = draw(st.integers(1000, 1_000_000))
-    data["limits"] = {"max_work": draw(floats(1, 1e6)), "max_memory_mb": 1e9}
-    return _case("too much work", data, ("steps",), ("steps",), "max_work")
+    data["scene"]["stack"]["count"] = count = draw(st.integers(1000, 1_000_000))
+    if kind == "work":
+        data["limits"] = {**roomy, "max_work": draw(floats(1, 1e6)), "max_memory_mb": 1e9}
+        return _case("too much work", data, ("steps",), ("steps",), "max_work")
+    if kind == "bodies":
+        data["limits"] = {"max_bodies": draw(st.integers(1, count - 1))}
+        return _case("too many bodies", data, ("scene", "stack", "count"), ("scene", "stack", "count"), "max_bodies")
+    if kind == "box steps":
+        data["limits"] = {"max_bodies": count, "max_box_steps": draw(floats(1, data["steps"] * count - 1))}
+        return _case("too many box steps", data, ("steps",), ("steps",), "max_box_steps")
+    runs = len(data["sweep"]["grid"]["solver.iterations"])
+    data["limits"] = {"max_runs": draw(st.integers(1, runs - 1))}
+    return _case("too many runs", data, ("sweep", "grid"), ("sweep", "grid"), "max_runs")
 
 
 @st.composite
@@ -349,7 +351,7 @@ def test_a_thousand_broken_configs_fail_cleanly(capsys: pytest.CaptureFixture[st
         print(f"\n{total} broken configs tried, none gave a traceback or wrote a file: "
               + ", ".join(f"{k} {n}" for k, n in sorted(kinds.items())))
     assert total >= 1000
-    assert len(kinds) >= 12, kinds
+    assert len(kinds) >= 14, kinds
 
 
 SUBPROCESS_CASES = ["dt: -0.1", "steps: .nan", "  iterations: 0", "  iterations: [", "steps: 900\nsteps: 5"]

@@ -20,6 +20,18 @@ def scalar(value: Any) -> str:
     return text.removesuffix("\n").removesuffix("\n...").strip()
 
 
+def paths(node: Any, path: Path = ()) -> list[Path]:
+    """Every key path in ``node`` (``()`` for the root), parents before children."""
+    out = [path]
+    if isinstance(node, dict):
+        for k, v in node.items():
+            out += paths(v, path + (k,))
+    elif isinstance(node, list):
+        for i, v in enumerate(node):
+            out += paths(v, path + (i,))
+    return out
+
+
 def dotted(path: Path) -> str:
     """``("outputs", 0, "path")`` -> ``outputs[0].path``, the way stackx names keys."""
     out = ""
