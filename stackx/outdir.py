@@ -134,12 +134,42 @@ def _sync_folder(folder: Path) -> None:
         os.close(fd)
 
 
-def write_json(target: Path, doc: object) -> None:
-    """``doc`` as sorted, indented JSON (the same bytes for the same content), written atomically."""
+MAX_DEPTH = 64  # nesting a folder's own JSON files may have (a manifest nests about 10 deep)
+
+
+def json_bytes(doc: object) -> bytes:
+    """``doc`` as sorted, indented JSON: the same bytes for the same content."""
+    import json
+
+    return (json.dumps(doc, indent=2, sort_keys=True) + "\n").encode()
+
+
+def load_json(data: bytes) -> object:
+    """JSON from a folder's own file, which anyone may have edited: ``ValueError`` saying why when it is not
+    JSON, or nests deeper than ``MAX_DEPTH`` (a file nested 100,000 deep must not reach the recursion limit)."""
     import json
 
     try:
-        target.parent.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise RunError(f"cannot make the folder {target.parent}: {exc.strerror or exc}") from None
-    atomic_write(target, (json.dumps(doc, indent=2, sort_keys=True) + "\n").encode())
+        doc = json.loads(data.decode("utf-8"))
+    except RecursionError:
+        raise ValueError(f"nested deeper than {MAX_DEPTH} levels") from None
+    except UnicodeDecodeError as exc:
+        raise ValueError(f"not UTF-8 ({exc.reason} at byte {exc.start})") from None
+    level = [(doc, 1)]
+    while level:
+        value, depth = level.pop()
+        if isinstance(value, (dict, list)):
+            if depth > MAX_DEPTH:
+                raise ValueError(f"nested deeper than {MAX_DEPTH} levels")
+            level.extend((v, depth + 1) for v in (value.values() if isinstance(value, dict) else value))
+    return doc
+
+
+def read_json(data: bytes | None) -> object | None:
+    """``load_json``, with None for no file or a file that is not JSON (for records that may be rebuilt)."""
+    if data is None:
+        return None
+    try:
+        return load_json(data)
+    except ValueError:
+        return None
