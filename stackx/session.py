@@ -37,7 +37,8 @@ def run_all(specs: list[ExperimentSpec], out: Path, quiet: bool = False, wide: b
     files in one step once they finished (see ``stackx.folder``); a failure leaves ``out`` as it was, except a
     blow-up, which keeps the experiments finished before it and the failed-run file."""
     console = Console(stderr=True)
-    with FolderUpdate(out, waiting=lambda line: console.print(line, markup=False, highlight=False)) as folder:
+    say = lambda line: console.print(line, markup=False, highlight=False, soft_wrap=True)  # noqa: E731
+    with FolderUpdate(out, waiting=say) as folder:
         preflight(specs, out)
         book = manifest.read(out)
         results: list[ExperimentResult] = []
