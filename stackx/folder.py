@@ -226,6 +226,14 @@ class FolderUpdate:
 
     def commit(self) -> None:
         """Carry the files the run leaves alone into the staged folder, then switch it in for ``root``."""
+        from stackx import interrupt
+
+        with interrupt.held():  # a Ctrl-C waits for the switch (an instant), so its message stays true
+            self._switch()
+            interrupt.switched()
+        self.made = []
+
+    def _switch(self) -> None:
         try:
             if self.root.is_dir():
                 self._carry()
@@ -234,7 +242,11 @@ class FolderUpdate:
             if self.root.exists():
                 if not _exchange(self.next, self.root):
                     os.rename(self.root, self.prev)
-                    os.rename(self.next, self.root)
+                    try:
+                        os.rename(self.next, self.root)
+                    except OSError:
+                        os.rename(self.prev, self.root)
+                        raise
                     self.next = self.prev  # what __exit__ removes: the old folder
                 _sync(self.parent)
                 shutil.rmtree(self.next, ignore_errors=True)
@@ -244,7 +256,6 @@ class FolderUpdate:
         except OSError as exc:
             raise RunError(f"cannot switch {self.shown} to the run's files: {exc.strerror or exc}; "
                            f"{self.shown} left as it was") from None
-        self.made = []
 
     def _folders(self) -> Iterator[Path]:
         yield self.next
