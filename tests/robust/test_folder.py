@@ -100,3 +100,22 @@ def test_a_second_writer_waits_for_the_first_and_says_so(tmp_path: Path) -> None
 def test_three_runs_into_one_folder_at_once_all_land(tmp_path: Path) -> None:
     for trial in range(2):
         assert together_trial(tmp_path / f"together{trial}") == ""
+
+
+def test_init_failing_part_way_leaves_nothing(tmp_path: Path) -> None:
+    """``stackx init`` writes file by file (its folder may be the working folder, or hold the user's files);
+    a write failing part-way takes back the files and folders it had made."""
+    from stackx.starter import shipped_files, source_root
+
+    root = source_root()
+    sizes = [(root / name).stat().st_size for name in sorted(shipped_files(root))]
+    limit = sizes[0] + 1  # the first file fits, a later and larger one does not
+    assert any(size > limit for size in sizes[1:])
+    (tmp_path / "mine.txt").write_text("the user's own file")
+    target = tmp_path / "lab"
+    done = subprocess.run([*command(target)[:3], "init", str(target)], cwd=REPO, env=environ(), timeout=120,
+                          capture_output=True, text=True, preexec_fn=lambda: _limited(limit))
+    assert done.returncode == 1, done.stdout + done.stderr
+    [line] = done.stderr.strip().splitlines()
+    assert line.startswith(f"error: cannot write {target}/") and line.endswith("File too large")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["mine.txt"]
