@@ -30,6 +30,8 @@ from pathlib import Path, PurePosixPath
 from types import TracebackType
 
 from stackx.errors import ConfigError, RunError
+from stackx import interrupt
+from stackx.outdir import check_place, safe_relative, sync_folder
 
 try:
     import fcntl
@@ -92,20 +94,6 @@ def _exchange(a: Path, b: Path) -> bool:
     if code in (errno.EINVAL, errno.ENOSYS, errno.ENOTSUP):
         return False
     raise OSError(code, os.strerror(code), str(b))
-
-
-def _sync(path: Path) -> None:
-    """Flush a file or folder to the disk (a folder: its entries); best effort for folders."""
-    try:
-        fd = os.open(path, os.O_RDONLY)
-    except OSError:
-        return
-    try:
-        os.fsync(fd)
-    except OSError:
-        pass
-    finally:
-        os.close(fd)
 
 
 class FolderUpdate:
@@ -185,8 +173,6 @@ class FolderUpdate:
     def write(self, files: dict[str, bytes]) -> None:
         """Stage an experiment's ``files`` (name -> bytes); refuse them all, before writing any, when a name
         leaves the folder or meets a link or a file in the way, or when the disk cannot hold them."""
-        from stackx.outdir import check_place, safe_relative
-
         try:
             for name in files:
                 check_place(self.root, safe_relative(name))
@@ -226,8 +212,6 @@ class FolderUpdate:
 
     def commit(self) -> None:
         """Carry the files the run leaves alone into the staged folder, then switch it in for ``root``."""
-        from stackx import interrupt
-
         with interrupt.held():  # a Ctrl-C waits for the switch (an instant), so its message stays true
             self._switch()
             interrupt.switched()
@@ -238,7 +222,7 @@ class FolderUpdate:
             if self.root.is_dir():
                 self._carry()
             for folder in self._folders():
-                _sync(folder)
+                sync_folder(folder)
             if self.root.exists():
                 if not _exchange(self.next, self.root):
                     os.rename(self.root, self.prev)
@@ -248,11 +232,11 @@ class FolderUpdate:
                         os.rename(self.prev, self.root)
                         raise
                     self.next = self.prev  # what __exit__ removes: the old folder
-                _sync(self.parent)
+                sync_folder(self.parent)
                 shutil.rmtree(self.next, ignore_errors=True)
             else:
                 os.rename(self.next, self.root)
-                _sync(self.parent)
+                sync_folder(self.parent)
         except OSError as exc:
             raise RunError(f"cannot switch {self.shown} to the run's files: {exc.strerror or exc}; "
                            f"{self.shown} left as it was") from None

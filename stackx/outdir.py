@@ -169,11 +169,12 @@ def atomic_write(target: Path, data: bytes) -> None:
         if isinstance(exc, OSError):
             raise RunError(f"cannot write {target}: {exc.strerror or exc}") from None
         raise
-    _sync_folder(target.parent)
+    sync_folder(target.parent)
 
 
-def _sync_folder(folder: Path) -> None:
-    """Make the rename itself durable (a crash of the machine, not only of the process); best effort."""
+def sync_folder(folder: Path) -> None:
+    """Make a folder's entries durable (a rename survives a crash of the machine, not only of the process);
+    best effort."""
     try:
         fd = os.open(folder, os.O_RDONLY)
     except OSError:
