@@ -1,5 +1,19 @@
-"""Allow ``python -m stackx``."""
+"""The ``stackx`` command (``python -m stackx``, and the installed script): Ctrl-C is answered in one line
+from the very start, before the command line's heavy imports (see ``stackx.interrupt``)."""
 
-from stackx.cli import main
+from stackx import interrupt
 
-main()
+
+def main() -> None:
+    interrupt.install()
+
+    def command() -> None:
+        from stackx.cli import main as cli  # typer, rich: a few tenths of a second
+
+        cli()
+
+    interrupt.run(command)
+
+
+if __name__ == "__main__":
+    main()

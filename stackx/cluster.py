@@ -42,7 +42,101 @@ from stackx.spec import Plan
 R = TypeVar("R")
 
 RETRIES = 2  # more tries of a task that raised something other than a run's own failure
-CONNECT_TIMEOUT = "10s"  # how long to wait for a scheduler at a given address
+CONNECT_TIMEOUT = 10.0  # seconds to wait for a scheduler to accept a connection, and again for its greeting
+GREETING_LIMIT = 1 << 20  # bytes: a scheduler's greeting is a few hundred; an HTTP answer read as a length is not
+
+
+def connect_timeout() -> float:
+    """``CONNECT_TIMEOUT``, or Dask's own setting when given in its environment variable
+    (``DASK_DISTRIBUTED__COMM__TIMEOUTS__CONNECT=3s``)."""
+    from dask.utils import parse_timedelta
+
+    given = os.environ.get("DASK_DISTRIBUTED__COMM__TIMEOUTS__CONNECT")
+    try:
+        return float(parse_timedelta(given)) if given else CONNECT_TIMEOUT
+    except (TypeError, ValueError, KeyError):
+        raise ConfigError(f"DASK_DISTRIBUTED__COMM__TIMEOUTS__CONNECT: not a duration: {given!r}") from None
+
+
+def greeted(address: str, timeout: float) -> None:
+    """Check, before Dask's client does, that a plain TCP ``address`` leads to a Dask scheduler.
+
+    A Dask scheduler greets a new connection first: one message, a 64-bit length and that many bytes of
+    frames. Dask's client trusts that length (an HTTP server's answer read as one asks for exabytes) and waits
+    for the greeting without a time limit (a server that accepts and stays silent hangs it). Here the
+    connection and the greeting each get ``timeout`` seconds, and a greeting must be shaped like Dask's: a
+    short message whose frame count and frame lengths add up. Addresses of other schemes (``tls://``,
+    ``inproc://``...) are left to Dask.
+    """
+    import socket
+    import struct
+
+    from distributed.comm.addressing import parse_address, parse_host_port
+
+    try:
+        scheme, location = parse_address(address)
+        if scheme != "tcp":
+            return
+        host, port = parse_host_port(location)
+    except (ValueError, TypeError) as exc:
+        raise ConfigError(f"--scheduler {address}: not a scheduler address ({first_line(exc)}); e.g. "
+                          f"tcp://10.0.0.5:8786") from None
+
+    def refuse(why: str) -> ConfigError:
+        return ConfigError(f"--scheduler {address}: {why}")
+
+    try:
+        conn = socket.create_connection((host, port), timeout=timeout)
+    except TimeoutError:
+        raise refuse(f"nothing accepted a connection in {timeout:g} s") from None
+    except (OSError, OverflowError) as exc:
+        raise refuse(f"no Dask scheduler answered: {getattr(exc, 'strerror', None) or exc}") from None
+    with conn:
+        conn.settimeout(timeout)
+        try:
+            head = _read(conn, 8)
+            size = struct.unpack("<Q", head)[0] if len(head) == 8 else 0
+            if len(head) == 8 and 16 <= size <= GREETING_LIMIT:
+                body = _read(conn, size)
+                if len(body) == size and _frames_add_up(body):
+                    return
+            elif len(head) == 8:
+                conn.settimeout(0.2)  # a little more of what it said, to show
+                try:
+                    head += conn.recv(24)
+                except OSError:
+                    pass
+        except TimeoutError:
+            raise refuse(f"the server accepted the connection but sent nothing in {timeout:g} s, where a Dask "
+                         f"scheduler greets at once: not a Dask scheduler (or a very slow one)") from None
+        except OSError as exc:
+            raise refuse(f"the connection failed while waiting for the scheduler's greeting: "
+                         f"{exc.strerror or exc}") from None
+    seen = head[:32].decode("latin-1") if head else ""
+    raise refuse(f"the server there does not speak Dask's protocol (it sent {seen!r}...): not a Dask scheduler"
+                 if head else "the server closed the connection without a greeting: not a Dask scheduler")
+
+
+def _read(conn: Any, n: int) -> bytes:
+    """Up to ``n`` bytes, fewer only when the peer closed."""
+    data = b""
+    while len(data) < n:
+        chunk = conn.recv(min(n - len(data), 65536))
+        if not chunk:
+            break
+        data += chunk
+    return data
+
+
+def _frames_add_up(body: bytes) -> bool:
+    """Dask's frame layout: a frame count, that many lengths, then frames whose lengths sum to the rest."""
+    import struct
+
+    count = struct.unpack_from("<Q", body)[0]
+    if not 1 <= count <= 64 or len(body) < 8 * (count + 1):
+        return False
+    lengths = struct.unpack_from(f"<{count}Q", body, 8)
+    return sum(lengths) <= len(body) - 8 * (count + 1)
 
 
 @contextmanager
@@ -54,8 +148,9 @@ def connect(address: str | None, chunk: int | None = None) -> Iterator[Cluster]:
                                dashboard_address=None, silence_logs=logging.CRITICAL)
         client = Client(started)
     else:
+        greeted(address, connect_timeout())
         try:
-            client = Client(address, timeout=CONNECT_TIMEOUT)
+            client = Client(address, timeout=connect_timeout())
         except (OSError, TimeoutError, ValueError) as exc:
             raise ConfigError(f"--scheduler {address}: no Dask scheduler answered: {first_line(exc)}") from None
     try:

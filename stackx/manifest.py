@@ -1,8 +1,7 @@
 """``manifest.json``: every artifact of an output folder with its SHA-256, and how it was made.
 
 One manifest per output folder, ``DIR/manifest.json``. Each experiment that ``stackx run`` writes into the
-folder gets one entry, written right after its artifacts (so the manifest follows the folder experiment by
-experiment); a later run into the same folder merges: an experiment that runs again replaces its entry
+folder gets one entry, switched in with its artifacts in the same step (``stackx.folder``); a later run into the same folder merges: an experiment that runs again replaces its entry
 whole, a file now written by another experiment leaves the old one's list, and entries of experiments not
 run again stay, since their files are still there untouched.
 
@@ -33,7 +32,7 @@ from typing import Any
 
 from stackx import __version__
 from stackx.errors import ConfigError
-from stackx.outdir import MANIFEST, TIMING, write_json
+from stackx.outdir import MANIFEST, TIMING, load_json
 
 FORMAT = 1
 DEPENDENCIES = ("numpy", "numba", "pydantic", "PyYAML", "typer", "rich")
@@ -131,8 +130,8 @@ def read(folder: Path) -> dict[str, Any] | None:
     if not path.exists():
         return None
     try:
-        doc = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, ValueError) as exc:
+        doc = load_json(path.read_bytes())
+    except (OSError, ValueError) as exc:
         raise ConfigError(f"not a readable stackx manifest ({exc}); move it away to start a new one",
                           file=str(path)) from None
     if not (isinstance(doc, dict) and doc.get("format") == FORMAT and isinstance(doc.get("experiments"), dict)):
@@ -150,8 +149,3 @@ def merged(doc: dict[str, Any] | None, name: str, new: dict[str, Any]) -> dict[s
             experiments[other] = {**old, "artifacts": kept}
     experiments[name] = new
     return {**header(), "experiments": dict(sorted(experiments.items()))}
-
-
-def record(folder: Path, spec: Any, files: dict[str, bytes]) -> None:
-    """Merge the entry of ``spec``, which just wrote ``files``, into the folder's manifest (atomically)."""
-    write_json(folder / MANIFEST, merged(read(folder), spec.name, entry(spec, files, folder)))

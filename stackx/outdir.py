@@ -1,10 +1,13 @@
 """The output folder: files are staged in memory and written only when a whole experiment succeeded.
 
-Each file is written to a temporary file in the same folder and renamed into place, so a reader (or a run
-killed at any moment) sees either the old complete file or the new complete one. A run killed between the
-write and the rename can leave its temporary file behind: it is named ``.NAME.XXXXXXXX.tmp``, a hidden name
-that no artifact may have (``safe_relative`` refuses names starting with a dot), so it is never taken for an
-artifact, never listed in the manifest, and can be deleted at any time.
+``stackx run`` switches its whole output folder in one step (``stackx.folder``); ``OutputDir.commit`` is for
+the writers of a few files into a folder that may hold other things (``stackx init``, ``stackx bench``). Each
+file is written to a temporary file in the same folder and renamed into place, so a reader (or a process
+killed at any moment) sees either the old complete file or the new complete one, and a commit failing
+part-way puts back what it had written. A process killed between a write and its rename can leave a
+temporary file behind: it is named ``.NAME.XXXXXXXX.tmp``, a hidden name that no artifact may have
+(``safe_relative`` refuses names starting with a dot), so it is never taken for an artifact, never listed in
+the manifest, and can be deleted at any time.
 
 Paths are confined to the folder: absolute paths, ``..``, hidden names and links on the way are refused
 (``stackx.outputs.confine`` checks an output's paths this way before anything runs, so a bad path fails with
@@ -76,23 +79,72 @@ class OutputDir:
         self.write_bytes(name, text.encode("utf-8"))
 
     def commit(self) -> list[Path]:
-        """Write every staged file atomically, in name order; return their paths."""
-        written = []
+        """Write every staged file atomically, in name order; return their paths.
+
+        All or nothing for a failure it sees (a full disk, a file in the way): the files already written are
+        put back as they were (a replaced file from a hard-linked copy kept until the end, a new one removed,
+        with the folders made for it). A process killed part-way leaves whole files only, some of them new;
+        ``stackx run`` switches its whole folder instead (``stackx.folder``).
+        """
         if self.root.exists() and not self.root.is_dir():
             raise ConfigError("the output folder is a file", file=str(self.root))
-        for name, data in sorted(self.staged.items()):
-            target = self.root / name
-            try:
-                check_place(self.root, name)
-                target.parent.mkdir(parents=True, exist_ok=True)
-                check_place(self.root, name)  # again: a link could have appeared while making folders
-                atomic_write(target, data)
-            except ValueError as exc:
-                raise ConfigError(str(exc), file=str(self.root)) from None
-            except OSError as exc:
-                raise RunError(f"cannot write {target}: {exc.strerror or exc}") from None
-            written.append(target)
-        return written
+        written: list[tuple[Path, Path | None]] = []  # (file, the copy of the file it replaced)
+        made: list[Path] = []
+        try:
+            for name, data in sorted(self.staged.items()):
+                target = self.root / name
+                try:
+                    check_place(self.root, name)
+                    made += _make_folders(target.parent)
+                    check_place(self.root, name)  # again: a link could have appeared while making folders
+                    kept = _keep(target)
+                    written.append((target, kept))
+                    atomic_write(target, data)
+                except ValueError as exc:
+                    raise ConfigError(str(exc), file=str(self.root)) from None
+                except OSError as exc:
+                    raise RunError(f"cannot write {target}: {exc.strerror or exc}") from None
+        except BaseException:
+            _undo(written, made)
+            raise
+        for _, kept in written:
+            if kept is not None:
+                kept.unlink(missing_ok=True)
+        return [target for target, _ in written]
+
+
+def _make_folders(folder: Path) -> list[Path]:
+    """Make ``folder`` and its missing parents; return those made, outermost first."""
+    missing = [p for p in (folder, *folder.parents) if not p.exists()][::-1]
+    for p in missing:
+        p.mkdir()
+    return missing
+
+
+def _keep(target: Path) -> Path | None:
+    """A hidden hard link to the file ``target`` is about to replace (None: there is none), to put it back."""
+    if not target.is_file():
+        return None
+    kept = target.with_name(f".{target.name}.{os.urandom(4).hex()}{TEMP_SUFFIX}")
+    os.link(target, kept)
+    return kept
+
+
+def _undo(written: list[tuple[Path, Path | None]], made: list[Path]) -> None:
+    """Put the files of a failed commit back as they were, best effort."""
+    for target, kept in reversed(written):
+        try:
+            if kept is not None:
+                os.replace(kept, target)
+            else:
+                target.unlink(missing_ok=True)
+        except OSError:
+            pass
+    for folder in reversed(made):
+        try:
+            folder.rmdir()
+        except OSError:
+            pass
 
 
 def atomic_write(target: Path, data: bytes) -> None:
@@ -117,11 +169,12 @@ def atomic_write(target: Path, data: bytes) -> None:
         if isinstance(exc, OSError):
             raise RunError(f"cannot write {target}: {exc.strerror or exc}") from None
         raise
-    _sync_folder(target.parent)
+    sync_folder(target.parent)
 
 
-def _sync_folder(folder: Path) -> None:
-    """Make the rename itself durable (a crash of the machine, not only of the process); best effort."""
+def sync_folder(folder: Path) -> None:
+    """Make a folder's entries durable (a rename survives a crash of the machine, not only of the process);
+    best effort."""
     try:
         fd = os.open(folder, os.O_RDONLY)
     except OSError:
@@ -134,12 +187,42 @@ def _sync_folder(folder: Path) -> None:
         os.close(fd)
 
 
-def write_json(target: Path, doc: object) -> None:
-    """``doc`` as sorted, indented JSON (the same bytes for the same content), written atomically."""
+MAX_DEPTH = 64  # nesting a folder's own JSON files may have (a manifest nests about 10 deep)
+
+
+def json_bytes(doc: object) -> bytes:
+    """``doc`` as sorted, indented JSON: the same bytes for the same content."""
+    import json
+
+    return (json.dumps(doc, indent=2, sort_keys=True) + "\n").encode()
+
+
+def load_json(data: bytes) -> object:
+    """JSON from a folder's own file, which anyone may have edited: ``ValueError`` saying why when it is not
+    JSON, or nests deeper than ``MAX_DEPTH`` (a file nested 100,000 deep must not reach the recursion limit)."""
     import json
 
     try:
-        target.parent.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise RunError(f"cannot make the folder {target.parent}: {exc.strerror or exc}") from None
-    atomic_write(target, (json.dumps(doc, indent=2, sort_keys=True) + "\n").encode())
+        doc = json.loads(data.decode("utf-8"))
+    except RecursionError:
+        raise ValueError(f"nested deeper than {MAX_DEPTH} levels") from None
+    except UnicodeDecodeError as exc:
+        raise ValueError(f"not UTF-8 ({exc.reason} at byte {exc.start})") from None
+    level = [(doc, 1)]
+    while level:
+        value, depth = level.pop()
+        if isinstance(value, (dict, list)):
+            if depth > MAX_DEPTH:
+                raise ValueError(f"nested deeper than {MAX_DEPTH} levels")
+            level.extend((v, depth + 1) for v in (value.values() if isinstance(value, dict) else value))
+    return doc
+
+
+def read_json(data: bytes | None) -> object | None:
+    """``load_json``, with None for no file or a file that is not JSON (for records that may be rebuilt)."""
+    if data is None:
+        return None
+    try:
+        return load_json(data)
+    except ValueError:
+        return None

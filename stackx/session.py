@@ -1,17 +1,17 @@
 """One ``stackx run``: step every experiment with a progress bar, write its artifacts, summarise.
 
-An experiment's files are staged and written only after all its runs and outputs succeeded, so a failure
-leaves the output folder as it was for that experiment; each file is replaced atomically, and the folder's
-``manifest.json`` is updated right after (see ``stackx.manifest``). A run that blows up leaves its partial
-measures in ``NAME.failed.json`` instead, a file that a later successful run of the experiment removes.
-Wall-clock times, the one thing that differs from run to run, go to ``timing.json`` and nowhere else.
-Where the runs step (this process, or a Dask cluster) is the executor's business (``stackx.executor``); what
-is written does not depend on it.
+Nothing is written into the output folder while the runs step: each finished experiment's files are staged
+beside it, and when every experiment has finished the folder is switched to the staged one in a single step
+(``stackx.folder``), with its ``manifest.json`` (see ``stackx.manifest``) and ``timing.json``. A run killed or
+failing at any moment leaves the folder as it was; two runs into one folder take turns. A run that blows up
+commits the experiments finished before it and its partial measures in ``NAME.failed.json``, a file that a
+later successful run of the experiment removes. Wall-clock times, the one thing that differs from run to
+run, go to ``timing.json`` and nowhere else. Where the runs step (this process, or a Dask cluster) is the
+executor's business (``stackx.executor``); what is written does not depend on it.
 """
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from typing import Any
 
@@ -24,7 +24,8 @@ from stackx import manifest
 from stackx.config import ExperimentSpec
 from stackx.errors import BlowUp, ConfigError, RunError, first_line
 from stackx.executor import Choice, open_executor
-from stackx.outdir import TIMING, OutputDir, failed_file, write_json
+from stackx.folder import FolderUpdate
+from stackx.outdir import MANIFEST, TIMING, OutputDir, failed_file, json_bytes, read_json
 from stackx.outputs import confine
 from stackx.results import ExperimentResult
 from stackx.screen import screen
@@ -32,12 +33,17 @@ from stackx.screen import screen
 
 def run_all(specs: list[ExperimentSpec], out: Path, quiet: bool = False, wide: bool = False,
             choice: Choice | None = None) -> list[ExperimentResult]:
-    """Run ``specs`` where ``choice`` says (this process by default) and write each experiment's files."""
-    preflight(specs, out)
+    """Run ``specs`` where ``choice`` says (this process by default) and switch the output folder to their
+    files in one step once they finished (see ``stackx.folder``); a failure leaves ``out`` as it was, except a
+    blow-up, which keeps the experiments finished before it and the failed-run file."""
     console = Console(stderr=True)
-    results: list[ExperimentResult] = []
-    columns = (TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn())
-    try:
+    say = lambda line: console.print(line, markup=False, highlight=False, soft_wrap=True)  # noqa: E731
+    with FolderUpdate(out, waiting=say) as folder:
+        preflight(specs, out)
+        book = manifest.read(out)
+        results: list[ExperimentResult] = []
+        blown: BlowUp | None = None
+        columns = (TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn())
         with open_executor(choice or Choice()) as executor, \
                 Progress(*columns, console=console, transient=True, disable=quiet) as bar:
             for spec, job in zip(specs, executor.experiments(specs)):
@@ -46,15 +52,20 @@ def run_all(specs: list[ExperimentSpec], out: Path, quiet: bool = False, wide: b
                 try:
                     result = job.result(lambda n, task=task: bar.advance(task, n))
                 except BlowUp as exc:
-                    kept = out / failed_file(spec.name)
-                    write_json(kept, {**exc.report, "resolved": spec.resolved})
-                    raise BlowUp(f"{exc}; partial measures in {kept}", exc.report) from None
-                write(spec, result, out)
+                    kept = failed_file(spec.name)
+                    folder.write_records({kept: json_bytes({**exc.report, "resolved": spec.resolved})})
+                    blown = BlowUp(f"{exc}; partial measures in {out / kept}", exc.report)
+                    break
+                book = _stage(spec, result, folder, book)
                 bar.update(task, completed=total or 1)
                 results.append(result)
-    finally:
         if any(r.runs for r in results):
-            _write_timing(results, out)
+            _write_timing(results, folder)
+        if book is not None:
+            folder.write_records({MANIFEST: json_bytes(book)})
+        folder.commit()
+    if blown is not None:
+        raise blown
     if not quiet:
         screen().print(summary(results, out, wide))
     return results
@@ -84,32 +95,41 @@ def stage(spec: ExperimentSpec, result: ExperimentResult, out: Path) -> OutputDi
     return staged
 
 
+def _stage(spec: ExperimentSpec, result: ExperimentResult, folder: FolderUpdate,
+           book: dict[str, Any] | None) -> dict[str, Any] | None:
+    """Stage an experiment's files and drop its failed-run file; return the manifest with its entry merged."""
+    staged = stage(spec, result, folder.shown).staged
+    folder.write(staged)
+    folder.remove(failed_file(spec.name))
+    if not staged:
+        return book
+    return manifest.merged(book, spec.name, manifest.entry(spec, staged, folder.shown))
+
+
 def write(spec: ExperimentSpec, result: ExperimentResult, out: Path) -> list[Path]:
-    """Write an experiment's files, then its manifest entry; drop a failed-run file it leaves behind. Return
-    the files written."""
-    staged = stage(spec, result, out)
-    written = staged.commit()
-    if staged.staged:
-        manifest.record(out, spec, staged.staged)
-    (out / failed_file(spec.name)).unlink(missing_ok=True)
+    """Write one experiment's files and its manifest entry into ``out``, switched in whole, and drop a
+    failed-run file it leaves behind. Return the files written."""
+    with FolderUpdate(out) as folder:
+        preflight([spec], out)
+        book = _stage(spec, result, folder, manifest.read(out))
+        if book is not None:
+            folder.write_records({MANIFEST: json_bytes(book)})
+        written = [out / name for name in sorted(folder.added) if name != MANIFEST]
+        folder.commit()
     return written
 
 
-def _write_timing(results: list[ExperimentResult], out: Path) -> None:
+def _write_timing(results: list[ExperimentResult], folder: FolderUpdate) -> None:
     """Merge this invocation's wall times into ``timing.json`` (microseconds per step, per run)."""
-    path = out / TIMING
-    try:
-        doc = json.loads(path.read_text())
-        if not isinstance(doc, dict):
-            doc = {}
-    except (OSError, ValueError):
+    doc = read_json(folder.read(TIMING))
+    if not isinstance(doc, dict):
         doc = {}
     for result in results:
         if result.runs:
             doc[result.spec.name] = {r.name: {"us_per_step": r.us_per_step, "wall_seconds": r.wall_seconds,
                                               "compiled": r.compiled}
                                       for r in result.runs}
-    write_json(path, doc)
+    folder.write_records({TIMING: json_bytes(doc)})
 
 
 MEASURED = (("max_depth", "depth m", "largest final penetration"), ("peak_depth", "peak m", "largest depth at any step"),

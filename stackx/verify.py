@@ -14,11 +14,14 @@ Either way nothing in ``DIR`` is written: outputs are made in memory. Each artif
 the re-run against the manifest's SHA-256, the file on disk against the manifest, and, where they differ,
 the re-run against the file on disk, to give the first byte that differs. The manifest entry the re-run would
 write (resolved config, plugins used) is compared too. Files listed as volatile (``timing.json``) are left out.
+Every file in ``DIR`` that the manifest does not know (``strays``) is a difference too: a stray frame is shown
+by a player page as if it belonged to the run.
 """
 
 from __future__ import annotations
 
 import json
+import os
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -26,6 +29,7 @@ from typing import Any
 
 from stackx import manifest
 from stackx.errors import ConfigError, StackxError
+from stackx.outdir import FAILED_SUFFIX
 
 Say = Callable[[str], None]
 
@@ -231,6 +235,35 @@ def _checked(folder: Path, doc: dict[str, Any]) -> dict[str, Any]:
     return doc["experiments"]
 
 
+def strays(folder: Path, experiments: dict[str, Any]) -> list[str]:
+    """Files (and links) under ``folder`` that its manifest does not know, in name order: not an artifact, not
+    the folder's own records, not a config or a file of a plugin folder the manifest records inside it. A
+    stray file may be an artifact of an older run, or a frame a player page would still show."""
+    known = {manifest.MANIFEST, manifest.TIMING}
+    inputs: list[str] = []  # plugin folders recorded inside the folder: whatever they hold is theirs
+    for listed in experiments.values():
+        known |= set(listed["artifacts"])
+        for key in ("config", "plugins"):
+            try:
+                path = manifest.inside(listed.get(key), folder)
+            except ValueError:
+                continue
+            rel = path.relative_to(folder).as_posix()
+            (inputs.append(rel + "/") if key == "plugins" else known.add(rel))
+    found = []
+    for top, dirs, files in os.walk(folder):
+        here = Path(top).relative_to(folder)
+        links = [d for d in dirs if (Path(top) / d).is_symlink()]
+        for name in files + links:
+            rel = (here / name).as_posix()
+            if rel in known or any(rel.startswith(p) for p in inputs):
+                continue
+            if here == Path(".") and name.endswith(FAILED_SUFFIX):
+                continue  # a failed run's partial measures: the folder's own record
+            found.append(rel)
+    return sorted(found)
+
+
 def verify(folder: Path, say: Say, configs: list[str] | None = None, plugins: Path | None = None,
            trust: bool = False) -> int:
     """Verify an output folder against the named ``configs`` (or, with ``trust``, the configs it holds);
@@ -260,6 +293,10 @@ def verify(folder: Path, say: Say, configs: list[str] | None = None, plugins: Pa
     chosen = {replay.name: replay for replay in replays}
     differences = sum(verify_experiment(folder, chosen[name], listed, say) if name in chosen
                       else _not_run(folder, name, listed, say) for name, listed in sorted(experiments.items()))
+    unknown = strays(folder, experiments)
+    for name in unknown:
+        say(f"DIFF stray: {_shown(name)}: in {folder} but not in its manifest (left by another run, or put there)")
+    differences += len(unknown)
     artifacts = sum(len(experiments[name]["artifacts"]) for name in chosen)
     skipped = len(experiments) - len(chosen)
     digest = manifest.sha256((folder / manifest.MANIFEST).read_bytes())

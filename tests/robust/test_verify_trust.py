@@ -109,7 +109,8 @@ def test_trust_refuses_a_path_leading_out_before_importing_anything(cli: Cli, pl
 
 def test_named_configs_ignore_every_path_the_manifest_names(cli: Cli, place: tuple[Path, Path, Path]) -> None:
     """Absolute config, plugin folder elsewhere, a plugin planted in the folder's own plugins/: verify of a
-    named config imports none of them, writes nothing, and finds every byte identical."""
+    named config imports none of them, writes nothing, finds every artifact identical, and names the files
+    in the folder that the manifest no longer accounts for."""
     bundle, elsewhere, marker = place
     _tamper(bundle, config=str(elsewhere / CONFIG), plugins=str(elsewhere / "plugins"))
     _planted(bundle / "plugins", marker)
@@ -118,9 +119,12 @@ def test_named_configs_ignore_every_path_the_manifest_names(cli: Cli, place: tup
     shutil.copy(CONFIGS / CONFIG, mine / CONFIG)
     before = _tree(bundle.parent)
     done = cli("verify", bundle, mine / CONFIG, cwd=bundle.parent)
-    assert done.returncode == 0, done.stdout + done.stderr
     assert f"run  03-sink: {mine / CONFIG} (no local plugins)" in done.stdout
-    assert "every byte identical" in done.stdout
+    assert "ok   03-sink: 2 artifact(s) identical" in done.stdout
+    # the folder's own config and the planted plugin are files its (tampered) manifest no longer knows
+    assert [line.split(":")[1].strip() for line in done.stdout.splitlines() if line.startswith("DIFF")] == \
+           ["configs/03-sink.yaml", "plugins/planted.py"]
+    assert done.returncode == 1 and f"verify: 2 difference(s) in {bundle}" in done.stdout
     assert not marker.exists()
     assert _tree(bundle.parent) == before
 
