@@ -1,7 +1,7 @@
 """Build step that puts the repository's configs and example plugin into the wheel.
 
 Everything about the package is declared in pyproject.toml; this file only extends ``build_py`` so that the
-files listed by ``stackx.starter.shipped_files`` (``configs/``, ``plugins/``) are copied from the repository's
+files listed by ``stackx.config.starter.shipped_files`` (``configs/``, ``plugins/``) are copied from the repository's
 top level to ``stackx/_starter/`` in the build tree. The repository keeps one copy of each config, and an
 installed stackx can write them out with ``stackx init``. An editable install reads them from the checkout
 itself, so nothing is copied there.
@@ -20,8 +20,8 @@ ROOT = Path(__file__).resolve().parent
 
 
 def _starter():  # type: ignore[no-untyped-def]
-    """``stackx/starter.py`` loaded by its path: the build has no stackx (nor its dependencies) to import."""
-    spec = importlib.util.spec_from_file_location("stackx_starter", ROOT / "stackx" / "starter.py")
+    """``stackx/config/starter.py`` loaded by its path: the build has no stackx (nor its dependencies) to import."""
+    spec = importlib.util.spec_from_file_location("stackx_starter", ROOT / "stackx" / "config" / "starter.py")
     assert spec is not None and spec.loader is not None
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)

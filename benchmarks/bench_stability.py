@@ -48,7 +48,7 @@ def _clocks(config: str, solver: str, repeats: int) -> dict[str, Any]:
     from stackx.bench import timing
     from stackx.bench.plan import CASE, load_case
     from stackx.bench.sweep import _runs
-    from stackx.config import load
+    from stackx.config.experiment import load
 
     case, _ = load_case(load(config), [solver])
     plan = case.plans[0]

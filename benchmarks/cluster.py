@@ -68,7 +68,7 @@ def local(spec: Any, rows: int) -> tuple[dict[str, Any], dict[str, Any]]:
     """The sweep stepped here, slice by slice; the measures of the sampled variants."""
     import dataclasses
 
-    from stackx.runner import run_experiment
+    from stackx.run.runner import run_experiment
 
     seen: dict[str, Any] = {}
     wanted = {r.name for r in spec.runs[::SAMPLE]}
@@ -89,7 +89,7 @@ def cluster(spec: Any, workers: int, rows: int | None) -> tuple[dict[str, Any], 
 
     from distributed import Client, LocalCluster, get_task_stream
 
-    from stackx.cluster import Cluster
+    from stackx.run.cluster import Cluster
 
     with LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
                       silence_logs=logging.CRITICAL) as local_cluster, Client(local_cluster) as client:
@@ -120,7 +120,7 @@ def merging(spec: Any, rows: int = 2000) -> dict[str, float]:
     import dataclasses
     import pickle
 
-    from stackx import chunks
+    from stackx.run import chunks
 
     (part,) = chunks.split(dataclasses.replace(spec, runs=spec.runs[:rows]), rows)
     wire = pickle.dumps(chunks.run_chunk(part), protocol=pickle.HIGHEST_PROTOCOL)
@@ -134,7 +134,7 @@ def project(n: int, load_s: float, single: dict[str, Any], best: dict[str, Any],
     """What 100 workers would do with the measured costs: the client's serial work (load, submit), then the
     longest of the workers' rounds of chunks, the client's unpickling and merging of every result, and the
     bytes on a 1 Gbit/s network."""
-    from stackx.chunks import TASKS_PER_THREAD
+    from stackx.run.chunks import TASKS_PER_THREAD
 
     per_variant = single["chunk_compute_s"]["sum"] / n  # one worker, alone on its core
     fixed = max(0.0, (single["collect_s"] - single["chunk_compute_s"]["sum"]) / single["chunks"])
@@ -163,9 +163,9 @@ def main() -> None:
         parser.error("--variants must be a positive multiple of 10,000")
     sizes = [int(w) for w in args.workers.split(",")]
 
-    from stackx import chunks
-    from stackx.config import load
-    from stackx.runner import batches
+    from stackx.run import chunks
+    from stackx.config.experiment import load
+    from stackx.run.runner import batches
 
     doc: dict[str, Any] = {"machine": _machine(), "variants": args.variants, "busy_cores_before": _busy_cores()}
     # cores other processes kept busy just before each section: the figures mean little when it is not near 0

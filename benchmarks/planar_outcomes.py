@@ -16,10 +16,10 @@ import re
 import warnings
 from pathlib import Path
 
-from stackx.config import load
-from stackx.criteria import Criteria, judge
+from stackx.config.experiment import load
+from stackx.bench.criteria import Criteria, judge
 from stackx.models.planar import measures
-from stackx.runner import run_experiment
+from stackx.run.runner import run_experiment
 
 SOLVERS = ("pymunk", "box2d", "box2d-v3", "mujoco", "planar-pgs", "planar-warm-start", "planar-ngs",
            "planar-soft-step", "planar-xpbd")

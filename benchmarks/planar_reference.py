@@ -27,13 +27,13 @@ from dataclasses import replace
 from pathlib import Path
 
 from stackx.bench.plan import CASE, load_case
-from stackx.config import load
-from stackx.criteria import Criteria
+from stackx.config.experiment import load
+from stackx.bench.criteria import Criteria
 from stackx.kernel import compiled
 from stackx.models.planar import error as planar_log
 from stackx.models.planar import reference, step_problem
 from stackx.models.planar.error import StepLog
-from stackx.runner import run_experiment
+from stackx.run.runner import run_experiment
 
 
 def load_run(path: str, steps: int, solver: str, knob: int | None) -> object:

@@ -38,7 +38,7 @@ from benchmarks.native import Native, build
 from benchmarks.subjects import TRANSCRIBED, Subject, largest_difference, write_config
 from benchmarks.timing import Sample, fitted_exponent, interleaved
 from stackx import kernel
-from stackx.config import load
+from stackx.config.experiment import load
 from stackx.registry import solvers
 
 REPO = Path(__file__).resolve().parents[1]
@@ -140,7 +140,7 @@ def _first_call(sub: Subject) -> float:
 
 def _runner_per_step(ctx: Context, steps: int) -> Sample:
     """``run_experiment`` of the 06 config, compiled: stepping plus recording plus measures, per step."""
-    from stackx.runner import run_experiment
+    from stackx.run.runner import run_experiment
 
     spec = load(str(SCENE_06))
     sample = Sample(steps)
@@ -287,7 +287,7 @@ def _tall_table(ctx: Context, name: str, sizes: tuple[int, ...], rows: dict[int,
 
 def sweep(ctx: Context) -> dict[str, Any]:
     """10,000 variants of scene 06 as one batch: throughput against the C transcription on one core."""
-    from stackx.runner import run_experiment
+    from stackx.run.runner import run_experiment
 
     doc = yaml.safe_load(SCENE_06.read_text())
     grid = {k: v[: max(2, len(v) // 3)] for k, v in SWEEP_GRID.items()} if ctx.quick else SWEEP_GRID

@@ -21,7 +21,7 @@ import yaml
 from benchmarks import plain
 from benchmarks.native import Native
 from stackx import kernel
-from stackx.config import ExperimentSpec, load
+from stackx.config.experiment import ExperimentSpec, load
 from stackx.models.column.state import ColumnState
 
 TRANSCRIBED = ("pgs", "warm-start", "exact")

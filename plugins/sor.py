@@ -20,8 +20,8 @@ from stackx.kernel import kernel, prange
 from stackx.models.column.monitor import observe
 from stackx.registry import solvers
 from stackx.solvers.base import Solver
-from stackx.solvers.pgs import PGSParams, gravity, integrate_positions
-from stackx.solvers.position import correct_column, position_workspace
+from stackx.solvers.column.pgs import PGSParams, gravity, integrate_positions
+from stackx.solvers.column.position import correct_column, position_workspace
 from stackx.models.column.state import ColumnState
 
 

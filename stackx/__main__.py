@@ -1,7 +1,7 @@
 """The ``stackx`` command (``python -m stackx``, and the installed script): Ctrl-C is answered in one line
-from the very start, before the command line's heavy imports (see ``stackx.interrupt``)."""
+from the very start, before the command line's heavy imports (see ``stackx.run.interrupt``)."""
 
-from stackx import interrupt
+from stackx.run import interrupt
 
 
 def main() -> None:

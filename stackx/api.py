@@ -25,12 +25,12 @@ from typing import Any
 import numpy as np
 import yaml
 
-from stackx.config import ExperimentSpec, apply_sets, build, local_plugins
-from stackx.config import load as load_file
+from stackx.config.experiment import ExperimentSpec, apply_sets, build, local_plugins
+from stackx.config.experiment import load as load_file
 from stackx.errors import ConfigError
-from stackx.results import ExperimentResult, RunResult
-from stackx.runner import run_experiment
-from stackx.yamlsrc import load_text
+from stackx.run.results import ExperimentResult, RunResult
+from stackx.run.runner import run_experiment
+from stackx.config.yamlsrc import load_text
 
 
 def _sets(overrides: Mapping[str, Any] | None) -> list[str]:
@@ -148,7 +148,7 @@ def run(spec: ExperimentSpec, steps: Iterable[int] | None = None, progress: bool
 def write(spec: ExperimentSpec, result: Result, out: str | Path) -> list[Path]:
     """Write the config's outputs (sinks and renderers) for ``result`` into ``out``, with its manifest entry,
     as ``stackx run`` does; return the files written."""
-    from stackx.session import write as write_all
+    from stackx.run.session import write as write_all
 
     return write_all(spec, result.experiment, Path(out))
 

@@ -19,7 +19,7 @@ import typer
 from stackx import __version__
 
 if TYPE_CHECKING:
-    from stackx.config import ExperimentSpec
+    from stackx.config.experiment import ExperimentSpec
 
 app = typer.Typer(no_args_is_help=True, pretty_exceptions_enable=False,
                   context_settings={"help_option_names": ["-h", "--help"]},  # every command, inherited
@@ -70,7 +70,7 @@ def _guard(debug: bool) -> Iterator[None]:
 
 def _load_all(paths: list[str], sets: list[str] | None, plugins: Path | None) -> list[ExperimentSpec]:
     """Validate every config before anything runs, so one bad file stops the whole command cleanly."""
-    from stackx.config import config_files, load
+    from stackx.config.experiment import config_files, load
     from stackx.errors import ConfigError
 
     notes: list[str] = []
@@ -103,7 +103,7 @@ def init(folder: Annotated[Path, typer.Argument(help="folder to write configs/ a
          debug: Debug = False) -> None:
     """Copy the lab, hard-case and example configs and the example plugin into a folder; never overwrites."""
     with _guard(debug):
-        from stackx.starter import init_folder, summary
+        from stackx.config.starter import init_folder, summary
 
         for line in summary(folder, init_folder(folder)):
             typer.echo(line)
@@ -117,8 +117,8 @@ def run(paths: Paths, out: Annotated[Path, typer.Option("--out", "-o", help="out
         executor: Executor = "local", scheduler: Scheduler = None, chunk: Chunk = None) -> None:
     """Run experiments and write their artifacts into the output folder."""
     with _guard(debug):
-        from stackx.executor import Choice
-        from stackx.session import run_all
+        from stackx.run.executor import Choice
+        from stackx.run.session import run_all
 
         choice = Choice(executor, scheduler, chunk)
         choice.check()
@@ -141,7 +141,7 @@ def bench(paths: Paths,
     with _guard(debug):
         from stackx.bench.command import bench as run_bench
         from stackx.errors import ConfigError
-        from stackx.executor import Choice
+        from stackx.run.executor import Choice
 
         choice = Choice(executor, scheduler)
         choice.check()
@@ -170,8 +170,8 @@ def plugins(plugins: Plugins = None, debug: Debug = False) -> None:
         from rich.table import Table
 
         from stackx import registry
-        from stackx.config import local_plugins
-        from stackx.screen import screen
+        from stackx.config.experiment import local_plugins
+        from stackx.output.screen import screen
 
         local_plugins(plugins, Path("plugins"))
         _warn_failed_plugins()
@@ -196,8 +196,8 @@ def schema(plugins: Plugins = None, debug: Debug = False,
     with _guard(debug):
         import json
 
-        from stackx.config import local_plugins
-        from stackx.schema import config_schema
+        from stackx.config.experiment import local_plugins
+        from stackx.config.schema import config_schema
 
         local_plugins(plugins, Path("plugins"))
         text = json.dumps(config_schema(), indent=2, sort_keys=True) + "\n"
@@ -223,7 +223,7 @@ def verify(folder: Annotated[Path, typer.Argument(help="output folder holding a 
     what the folder itself holds.
     """
     with _guard(debug):
-        from stackx.verify import verify as verify_folder
+        from stackx.output.verify import verify as verify_folder
 
         if verify_folder(folder, typer.echo, configs, plugins, trust):
             raise typer.Exit(1)
@@ -237,7 +237,7 @@ def serve(folder: Annotated[Path, typer.Argument(help="folder to serve")] = Path
     """Serve an output folder over HTTP to watch index.html play the frames."""
     with _guard(debug):
         from stackx.errors import ConfigError
-        from stackx.serve import serve_folder
+        from stackx.output.serve import serve_folder
 
         if not folder.is_dir():
             raise ConfigError("no such folder", file=str(folder))

@@ -24,7 +24,7 @@ instead: compiled without reference counting, a call passing it arrays costs wha
 
 Compilation is lazy: ``@kernel`` wraps the function, and nothing is compiled until a compiled call is made.
 The compiled version of a kernel is built from the same code with every kernel it names replaced by that
-kernel's compiled version, so kernels must name each other as module globals (``from stackx.correct
+kernel's compiled version, so kernels must name each other as module globals (``from stackx.solvers.correct
 import correct``), not as attributes of a module, and read module constants as numba does: once.
 
 Compiled code is cached under ``STACKX_CACHE_DIR`` (default ``$XDG_CACHE_HOME/stackx``, else

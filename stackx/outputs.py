@@ -17,12 +17,12 @@ from typing import TYPE_CHECKING, ClassVar
 from pydantic import BaseModel
 
 from stackx.errors import Fail
-from stackx.outdir import check_place, safe_relative
+from stackx.output.outdir import check_place, safe_relative
 
 if TYPE_CHECKING:
-    from stackx.outdir import OutputDir
-    from stackx.results import ExperimentResult
-    from stackx.spec import Plan
+    from stackx.output.outdir import OutputDir
+    from stackx.run.results import ExperimentResult
+    from stackx.config.spec import Plan
 
 
 MAX_NAME_BYTES = 255

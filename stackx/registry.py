@@ -46,10 +46,10 @@ T = TypeVar("T")
 BUILTIN_MODULES = {
     "model": ["stackx.models.column.model", "stackx.models.planar.model"],
     "scene": ["stackx.scenes.column", "stackx.scenes.planar"],
-    "solver": ["stackx.solvers.pgs", "stackx.solvers.warm_start", "stackx.solvers.exact",
-               "stackx.solvers.baumgarte", "stackx.solvers.split_impulse",
-               "stackx.solvers.ngs", "stackx.solvers.soft_step",
-               "stackx.solvers.xpbd", "stackx.solvers.jacobi",
+    "solver": ["stackx.solvers.column.pgs", "stackx.solvers.column.warm_start", "stackx.solvers.column.exact",
+               "stackx.solvers.column.baumgarte", "stackx.solvers.column.split_impulse",
+               "stackx.solvers.column.ngs", "stackx.solvers.column.soft_step",
+               "stackx.solvers.column.xpbd", "stackx.solvers.column.jacobi",
                "stackx.solvers.planar.pgs", "stackx.solvers.planar.warm_start", "stackx.solvers.planar.ngs",
                "stackx.solvers.planar.exact", "stackx.solvers.planar.soft_step", "stackx.solvers.planar.xpbd",
                # engines: their packages are imported only when a run is set up (stackx.solvers.engines.engine)

@@ -2,7 +2,7 @@
 
 - ``case``: the ``bench:`` section of a config (criteria, knob values, settings, a lab claim to measure);
 - ``plan``: which solver runs with which parameters on a case;
-- ``sweep``: the batched runs of a case, each measured and judged (``stackx.criteria``);
+- ``sweep``: the batched runs of a case, each measured and judged (``stackx.bench.criteria``);
 - ``timing``: microseconds per step, measured apart (what the bench measures beyond a run's own measures,
   and the every-step error against the reference solver, come from the case's model);
 - ``claims``: the lab's claims (percent 1.0 oscillates, slop 0 jitters), measured;

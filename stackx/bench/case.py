@@ -12,7 +12,7 @@ from typing import Annotated, Any
 
 from pydantic import BaseModel, ConfigDict, Field, field_validator
 
-from stackx.criteria import Criteria
+from stackx.bench.criteria import Criteria
 
 Knobs = Annotated[list[Annotated[int, Field(gt=0)]], Field(min_length=1)]
 KNOB = [1, 2, 4, 8, 16, 32, 64]

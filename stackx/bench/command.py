@@ -18,11 +18,11 @@ from stackx.bench.report import write
 from stackx.bench.result import CaseResult
 from stackx.bench.sweep import bench_plan, plan_work, work
 from stackx.bench.tables import print_all
-from stackx.config import config_files, load
+from stackx.config.experiment import config_files, load
 from stackx.errors import ConfigError
-from stackx.executor import Choice, open_executor
-from stackx.outdir import OutputDir
-from stackx.screen import screen
+from stackx.run.executor import Choice, open_executor
+from stackx.output.outdir import OutputDir
+from stackx.output.screen import screen
 
 
 def load_cases(paths: list[str], solvers: list[str] | None, plugins: Path | None,

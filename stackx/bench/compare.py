@@ -26,7 +26,7 @@ from typing import Any
 
 from stackx.bench.plan import CASE
 from stackx.bench.sweep import Record
-from stackx.criteria import word
+from stackx.bench.criteria import word
 
 TARGETS = (1e-1, 1e-2, 1e-3, 1e-4, 1e-6)  # error levels (m/s) at which solvers are compared at equal cost
 TIE = 0.2  # times within this share of each other are the same cost

@@ -19,7 +19,7 @@ from stackx.bench.result import DEFINITIONS, CaseResult, call_time, per_call_not
 from stackx.bench.snapshots import Snapshot
 from stackx.bench.summary import summary_html
 from stackx.bench.sweep import Record
-from stackx.criteria import NAMES
+from stackx.bench.criteria import NAMES
 
 CSS = """
 body { font: 14px/1.45 system-ui, sans-serif; margin: 1.5em auto; max-width: 1250px; color: #222; padding: 0 1em; }

@@ -19,10 +19,10 @@ from pydantic import BaseModel, ValidationError
 
 from stackx import registry
 from stackx.bench.case import BenchSection
-from stackx.config import ExperimentSpec, parse_key
+from stackx.config.experiment import ExperimentSpec, parse_key
 from stackx.errors import ConfigError
-from stackx.spec import RunSpec
-from stackx.yamlsrc import Path
+from stackx.config.spec import RunSpec
+from stackx.config.yamlsrc import Path
 
 KNOB_FIELDS = ("iterations", "substeps")  # the usual names of a cost knob, when a solver declares none
 CASE, BASELINE = "case", "baseline"

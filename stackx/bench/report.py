@@ -17,7 +17,8 @@ from importlib import metadata
 from pathlib import Path
 from typing import Any
 
-from stackx import __version__, manifest
+from stackx import __version__
+from stackx.output import manifest
 from stackx.bench.compare import borderline, matrix, outcomes, why
 from stackx.bench.markup import png_uri
 from stackx.bench.page import report_html
@@ -25,7 +26,7 @@ from stackx.bench.plots import drift_profile_png, rest_height, speed_error_png, 
 from stackx.bench.snapshots import snapshots
 from stackx.bench.result import DEFINITIONS, CaseResult
 from stackx.bench.sweep import Record
-from stackx.outdir import OutputDir
+from stackx.output.outdir import OutputDir
 
 
 def config_hash(path: str) -> str:

@@ -12,7 +12,7 @@ from stackx.bench.markup import number
 from stackx.bench.plan import Case
 from stackx.bench.sweep import Record
 from stackx.bench.timing import UNSTABLE
-from stackx.criteria import digits
+from stackx.bench.criteria import digits
 from stackx.models.touch import TOUCH_GAP
 from stackx.models.column.measures import MOTION_WINDOW, STILL
 

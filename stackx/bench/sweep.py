@@ -20,11 +20,11 @@ from typing import Any
 from stackx.bench.plan import CASE, Case, SolverPlan
 from stackx.bench.timing import one_thread, time_run
 from stackx.bench.trajectory import SeriesLog, Trajectory
-from stackx.criteria import NAMES, judge, passed
+from stackx.bench.criteria import NAMES, judge, passed
 from stackx.errors import RunError
-from stackx.results import RunResult
-from stackx.runner import run_experiment
-from stackx.spec import Plan, RunSpec
+from stackx.run.results import RunResult
+from stackx.run.runner import run_experiment
+from stackx.config.spec import Plan, RunSpec
 
 RUN_MEASURES = ("max_depth", "peak_depth", "reach", "launch", "rms_motion")  # taken from the runner's measures
 
@@ -163,7 +163,7 @@ def time_plan(case: Case, plan: SolverPlan, records: list[Record]) -> None:
 
 def bench_plan(case: Case, plan: SolverPlan, progress: Progress | None = None) -> list[Record]:
     """One solver on a case: measured, judged and timed, on one thread (see ``one_thread``). The bench's unit of
-    work: an executor may run each on another machine (``stackx.executor``)."""
+    work: an executor may run each on another machine (``stackx.run.executor``)."""
     with one_thread():
         found = run_plan(case, plan, progress)
         time_plan(case, plan, found)

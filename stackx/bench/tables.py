@@ -18,7 +18,7 @@ from stackx.bench.markup import number
 from stackx.bench.result import (UNSTABLE_MARK, CaseResult, call_time, per_call_note, shown, step_time,
                                  unstable_note)
 from stackx.bench.sweep import Record
-from stackx.criteria import NAMES
+from stackx.bench.criteria import NAMES
 
 _KNOB = {"iterations": "it", "substeps": "sub"}
 

@@ -41,7 +41,7 @@ import numpy as np
 
 from stackx import kernel
 from stackx.bench.case import Timing
-from stackx.spec import RunSpec
+from stackx.config.spec import RunSpec
 
 CLOCK = time.thread_time  # seconds of CPU this thread has used: time the machine gave to other work is not counted
 UNSTABLE = 0.25  # spread (median repeat over the fastest, minus 1) above which a figure is flagged

@@ -26,8 +26,8 @@ from typing import Any
 
 import numpy as np
 
-from stackx.runner import OnStep, StepObserver
-from stackx.spec import RunSpec
+from stackx.run.runner import OnStep, StepObserver
+from stackx.config.spec import RunSpec
 
 SAMPLES = 200  # points per run: enough for a smooth line at a report's width
 
@@ -122,7 +122,7 @@ class _Batch:
 
 
 class SeriesLog:
-    """A ``stackx.runner.StepObserver`` that passes every step on to ``inner`` (the model's step log, if it
+    """A ``stackx.run.runner.StepObserver`` that passes every step on to ``inner`` (the model's step log, if it
     has one) and samples each batch's rows; ``series(name)`` gives a run's ``Trajectory``."""
 
     def __init__(self, inner: StepObserver | None) -> None:

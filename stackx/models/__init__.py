@@ -27,8 +27,8 @@ from typing import TYPE_CHECKING, Any, ClassVar, Protocol
 from pydantic import BaseModel, ConfigDict
 
 if TYPE_CHECKING:
-    from stackx.results import RunResult
-    from stackx.spec import RunSpec
+    from stackx.run.results import RunResult
+    from stackx.config.spec import RunSpec
 
 Measures = dict[str, float | list[float]]
 Offender = tuple[int, int, str, str]  # (row, body, cause, detail) of the first bad body, bodies bottom-up
@@ -106,6 +106,6 @@ class Model:
 
     @classmethod
     def step_log(cls, criteria: Any) -> Any:
-        """A ``stackx.runner.StepObserver`` measuring every step against ``reference``, or None when the model
+        """A ``stackx.run.runner.StepObserver`` measuring every step against ``reference``, or None when the model
         has no reference: its runs then carry no error figures."""
         return None

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pydantic import BaseModel, ConfigDict, Field
 
-from stackx.gfxlib import Canvas
+from stackx.render.gfxlib import Canvas
 from stackx.outputs import Renderer
 from stackx.registry import renderers
 from stackx.render.style import Colour

@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from stackx.gfxlib import Canvas
+from stackx.render.gfxlib import Canvas
 from stackx.models.column.state import ColumnState
 from stackx.models.planar.figures import top_height
 from stackx.models.planar.measures import max_depth

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from stackx.spec import Plan
+from stackx.config.spec import Plan
 from stackx.errors import Fail
 
 

@@ -10,7 +10,7 @@ moving box in the k-th colour; the floor row is drawn last.
 
 from __future__ import annotations
 
-from stackx.gfxlib import Canvas
+from stackx.render.gfxlib import Canvas
 from stackx.models.planar.figures import corners
 from stackx.models.planar.state import PlanarState
 from stackx.render.style import Style, backdrop, draw_floor

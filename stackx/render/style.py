@@ -11,7 +11,7 @@ from typing import Annotated
 
 from pydantic import BaseModel, ConfigDict, Field
 
-from stackx.gfxlib import Canvas
+from stackx.render.gfxlib import Canvas
 from stackx.models.column.state import ColumnState
 
 Colour = tuple[Annotated[int, Field(ge=0, le=255)], Annotated[int, Field(ge=0, le=255)],

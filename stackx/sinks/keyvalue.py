@@ -1,6 +1,6 @@
 """``key=value`` text files, one line per key in the order the config lists them.
 
-Values are expressions over the runs' measures (see ``stackx.expr``) and are written with Python's
+Values are expressions over the runs' measures (see ``stackx.config.expr``) and are written with Python's
 ``repr``, the shortest decimal that reads back as the same float.
 """
 
@@ -9,7 +9,7 @@ from __future__ import annotations
 from pydantic import BaseModel, ConfigDict, Field, field_validator
 
 from stackx.errors import RunError
-from stackx.expr import ExprError, Known, evaluate
+from stackx.config.expr import ExprError, Known, evaluate
 from stackx.outputs import Sink
 from stackx.registry import sinks
 

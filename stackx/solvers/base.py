@@ -13,12 +13,12 @@ from typing import Annotated, Any, ClassVar, Literal
 import numpy as np
 from pydantic import BaseModel, BeforeValidator, ConfigDict, Field
 
-from stackx.solvers.position import STAGES
+from stackx.solvers.column.position import STAGES
 
 
 class Correction(BaseModel):
     """Position correction after the velocity solve: the lab's ``correct()``, contact by contact or for the
-    whole column at once (``stackx.solvers.position`` says what each stage trades)."""
+    whole column at once (``stackx.solvers.column.position`` says what each stage trades)."""
 
     model_config = ConfigDict(extra="forbid")
     slop: float = Field(0.01, ge=0, allow_inf_nan=False,
@@ -79,7 +79,7 @@ class Solver:
 
     def corrections(self) -> tuple[np.ndarray, ...]:
         """Per batch row of a solver with a ``correction`` knob, the arguments of its position stage: whether
-        it runs, slop, percent, stage (``stackx.solvers.position.STAGES``) and max_push (m/s, inf for none)."""
+        it runs, slop, percent, stage (``stackx.solvers.column.position.STAGES``) and max_push (m/s, inf for none)."""
         on = np.array([p.correction is not None for p in self.params], dtype=np.bool_)
         stage = np.array([STAGES[p.correction.stage] if p.correction is not None else 0 for p in self.params],
                          dtype=np.int64)

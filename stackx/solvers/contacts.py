@@ -22,7 +22,7 @@ from pydantic import BaseModel, ConfigDict, Field
 
 from stackx.kernel import kernel
 from stackx.solvers.base import Solver
-from stackx.solvers.pgs import gravity
+from stackx.solvers.column.pgs import gravity
 from stackx.models.column.state import ColumnState
 
 

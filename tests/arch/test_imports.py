@@ -92,8 +92,8 @@ def test_the_finder_sees_a_planted_cycle() -> None:
 def test_the_graph_holds_the_imports_it_should() -> None:
     """Edges the walker must see: a top-level import, one under TYPE_CHECKING, a parent package."""
     edges = graph()
-    assert "stackx.spec" in edges["stackx.runner"]
-    assert "stackx.spec" in edges["stackx.outputs"]  # under TYPE_CHECKING
+    assert "stackx.config.spec" in edges["stackx.run.runner"]
+    assert "stackx.config.spec" in edges["stackx.outputs"]  # under TYPE_CHECKING
     assert {"stackx.models", "stackx.models.column"} <= edges["stackx.models.column.model"]
 
 

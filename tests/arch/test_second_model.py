@@ -20,7 +20,7 @@ from dataclasses import dataclass
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
-from stackx.gfxlib import Canvas
+from stackx.render.gfxlib import Canvas
 from stackx.models import Model
 from stackx.outputs import Renderer
 from stackx.registry import models, renderers, scenes, solvers

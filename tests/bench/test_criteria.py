@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from stackx import kernel
-from stackx.criteria import Criteria, judge, passed
+from stackx.bench.criteria import Criteria, judge, passed
 from stackx.models.column.monitor import observe
 from stackx.models.column.state import ColumnState
 

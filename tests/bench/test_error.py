@@ -96,8 +96,8 @@ def test_the_error_of_a_fast_drop_includes_its_impact(tmp_path: Path) -> None:
     import subprocess
     import sys
 
-    from stackx.config import load
-    from stackx.runner import run_experiment
+    from stackx.config.experiment import load
+    from stackx.run.runner import run_experiment
     from tests.conftest import REPO
 
     boxes = "\n".join(f"    - {{{', '.join(f'{k}: {v}' for k, v in b.items())}}}" for b in DROP)

@@ -22,11 +22,11 @@ import pytest
 
 from stackx import registry
 from stackx.bench.plan import CASE, load_case
-from stackx.config import load
-from stackx.criteria import Criteria, judge
+from stackx.config.experiment import load
+from stackx.bench.criteria import Criteria, judge
 from stackx.errors import BlowUp
-from stackx.runner import run_experiment
-from stackx.spec import Plan
+from stackx.run.runner import run_experiment
+from stackx.config.spec import Plan
 from tests.conftest import CONFIGS
 
 GAP = 0.02  # m: touching, as the criterion defines it

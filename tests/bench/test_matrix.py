@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from stackx.bench.compare import cell, chosen, equal_cost, pareto, why
 from stackx.bench.sweep import Record
-from stackx.criteria import Criteria, judge, passed
+from stackx.bench.criteria import Criteria, judge, passed
 
 CALM = {"max_depth": 0.005, "max_gap": 0.0, "top_rest_error": -0.03, "boxes": 6, "reach": 0.01, "rms_motion": 0.0,
         "launch": 0.0}

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from stackx.models.column.measures import extra_measures, top_motion
-from stackx.config import load
-from stackx.results import RunResult
+from stackx.config.experiment import load
+from stackx.run.results import RunResult
 from stackx.models.column.state import ColumnState
 
 DT = 0.1

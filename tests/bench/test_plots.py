@@ -73,7 +73,7 @@ def test_the_drift_profile_shows_millimetres_and_pins_what_is_beyond(tmp_path: P
     and the top one 3 m away (slid off): the sideways panel spans four times the 50 mm limit, draws the four at
     their millimetres and the fifth as a triangle at the right edge; the turn panel the same in degrees."""
     from stackx.bench.plots import BEYOND, drift_profile_figure, _pyplot
-    from stackx.config import load
+    from stackx.config.experiment import load
 
     (tmp_path / "pile.yaml").write_text("scene: {name: planar, stack: {count: 5, friction: 0.6}}\n"
                                         "solver: {name: planar-exact}\nsteps: 1\n")

@@ -11,7 +11,7 @@ from stackx.bench.compare import borderline, equal_cost, pareto, tied_with
 from stackx.bench.result import step_time
 from stackx.bench.sweep import Record
 from stackx.bench.timing import UNSTABLE, summary
-from stackx.criteria import Check, digits, near
+from stackx.bench.criteria import Check, digits, near
 
 
 def test_the_figure_is_the_fastest_repeat_and_the_spread_is_the_median_above_it() -> None:

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from stackx.expr import ExprError, Known, evaluate
+from stackx.config.expr import ExprError, Known, evaluate
 from stackx.models.column.measures import SCALARS, VECTORS
 
 MEASURES = {"a": {"y": [1.0, 2.0, 3.5], "max_depth": 0.25, "depth": [0.0, 0.1, 0.2]},

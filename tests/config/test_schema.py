@@ -10,7 +10,7 @@ import pytest
 import yaml
 from jsonschema import Draft202012Validator
 
-from stackx.config import ExperimentModel
+from stackx.config.experiment import ExperimentModel
 from tests.conftest import REPO, run_cli
 
 SHIPPED = sorted(REPO.glob("configs/**/*.yaml"))

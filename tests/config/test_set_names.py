@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import pytest
 
-from stackx.config import apply_sets, parse_key
+from stackx.config.experiment import apply_sets, parse_key
 from stackx.errors import ConfigError
-from stackx.yamlsrc import load_file
+from stackx.config.yamlsrc import load_file
 from tests.conftest import CONFIGS
 
 STACK = str(CONFIGS / "06-stack.yaml")

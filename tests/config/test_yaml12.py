@@ -7,7 +7,7 @@ import math
 import pytest
 
 from stackx.errors import ConfigError
-from stackx.yamlsrc import load_text
+from stackx.config.yamlsrc import load_text
 
 
 @pytest.mark.parametrize("text, value", [

@@ -17,12 +17,12 @@ from typing import Any
 
 import pytest
 
-from stackx import chunks
-from stackx.config import ExperimentSpec, load
+from stackx.run import chunks
+from stackx.config.experiment import ExperimentSpec, load
 from stackx.errors import BlowUp, RunError
-from stackx.runner import run_experiment
-from stackx.session import stage
-from stackx.solvers.pgs import PGS
+from stackx.run.runner import run_experiment
+from stackx.run.session import stage
+from stackx.solvers.column.pgs import PGS
 from tests.conftest import REPO
 from tests.dask.configs import BLOWS, SWEEP, write
 
@@ -162,7 +162,7 @@ from stackx import registry
 module, runs = pickle.loads(sys.stdin.buffer.read())
 registry.import_local(module, Path(sys.argv[1]))
 run = pickle.loads(runs)[0]
-from stackx.solvers.pgs import PGS
+from stackx.solvers.column.pgs import PGS
 try:
     registry.solvers.get("sor")
     kept = True

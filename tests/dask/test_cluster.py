@@ -23,11 +23,11 @@ distributed = pytest.importorskip("distributed", reason="needs Dask: python3 -m 
 
 from stackx.bench.command import bench  # noqa: E402
 from stackx.bench.report import CaseResult, write  # noqa: E402
-from stackx.config import load  # noqa: E402
-from stackx.executor import Choice, open_executor  # noqa: E402
-from stackx.outdir import OutputDir  # noqa: E402
-from stackx.runner import run_experiment  # noqa: E402
-from stackx.session import run_all, stage  # noqa: E402
+from stackx.config.experiment import load  # noqa: E402
+from stackx.run.executor import Choice, open_executor  # noqa: E402
+from stackx.output.outdir import OutputDir  # noqa: E402
+from stackx.run.runner import run_experiment  # noqa: E402
+from stackx.run.session import run_all, stage  # noqa: E402
 from tests.conftest import REPO, Cli  # noqa: E402
 from tests.dask.configs import SWEEP, write as write_config  # noqa: E402
 

@@ -10,7 +10,7 @@ from pathlib import Path
 import pytest
 
 from stackx.errors import ConfigError
-from stackx.executor import Choice
+from stackx.run.executor import Choice
 from tests.conftest import CONFIGS, REPO, Cli
 
 

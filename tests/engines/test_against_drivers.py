@@ -9,8 +9,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from stackx.config import load
-from stackx.runner import run_experiment
+from stackx.config.experiment import load
+from stackx.run.runner import run_experiment
 from tests.conftest import CONFIGS
 from tests.engines.drivers import DRIVERS, peak_depth, read_column
 from tests.engines.need import engine_params

@@ -12,8 +12,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from stackx.config import load
-from stackx.runner import run_experiment
+from stackx.config.experiment import load
+from stackx.run.runner import run_experiment
 from tests.engines.need import engine_params
 
 SCENE = """

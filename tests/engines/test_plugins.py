@@ -36,7 +36,7 @@ def without(packages: tuple[str, ...], *args: str | Path, cwd: Path = REPO) -> s
 def test_listing_and_validating_import_no_engine() -> None:
     code = ("import json, sys\n"
             "from stackx import registry\n"
-            "from stackx.config import load\n"
+            "from stackx.config.experiment import load\n"
             "names = [e.name for e in registry.solvers.entries()]\n"
             "load(sys.argv[1])\n"
             "print(json.dumps([names, [m for m in sys.argv[2:] if m in sys.modules]]))\n")

@@ -7,7 +7,7 @@ import math
 from hypothesis import given
 from hypothesis import strategies as st
 
-from stackx.correct import correct
+from stackx.solvers.correct import correct
 
 SLOP = 0.01
 PERCENT = 0.2

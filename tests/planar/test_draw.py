@@ -229,9 +229,9 @@ def test_the_bench_series_follow_the_pile_top_depth_and_drift(tmp_path: Path) ->
     scene has no rigid pile), the drift that of the boxes placed at rest (the stack's two and the leaning
     one, not the post) from where they began."""
     from stackx.bench.trajectory import SeriesLog
-    from stackx.config import load
+    from stackx.config.experiment import load
     from stackx.models.planar.measures import max_depth
-    from stackx.runner import run_experiment
+    from stackx.run.runner import run_experiment
 
     config = tmp_path / "lean.yaml"
     config.write_text(LEANING)

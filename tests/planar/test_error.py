@@ -11,11 +11,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from stackx.config import load
-from stackx.criteria import Criteria
+from stackx.config.experiment import load
+from stackx.bench.criteria import Criteria
 from stackx.models.planar.error import BatchLog, RowLog, StepLog, log_step
 from stackx.registry import solvers
-from stackx.runner import run_experiment
+from stackx.run.runner import run_experiment
 from tests.planar.hand_states import boxes
 
 DT = 1 / 60

@@ -95,7 +95,7 @@ def test_the_run_table_flags_a_run_with_unsolved_steps() -> None:
 
     from rich.console import Console
 
-    from stackx.session import summary
+    from stackx.run.session import summary
 
     def run(name: str, missed: int) -> SimpleNamespace:
         spec = SimpleNamespace(solver_cls=SimpleNamespace(plugin_name="planar-exact"),

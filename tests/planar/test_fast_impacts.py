@@ -8,8 +8,8 @@ from __future__ import annotations
 
 import pytest
 
-from stackx.config import load
-from stackx.runner import run_experiment
+from stackx.config.experiment import load
+from stackx.run.runner import run_experiment
 from tests.conftest import CONFIGS
 
 CASE = CONFIGS / "planar" / "pyramid-drop.yaml"

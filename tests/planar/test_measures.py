@@ -9,7 +9,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from stackx.criteria import Criteria, judge
+from stackx.bench.criteria import Criteria, judge
 from stackx.models.planar import measures
 from stackx.models.planar.state import PlanarState
 from stackx.scenes.planar import Planar, PlanarParams

@@ -9,10 +9,10 @@ import math
 import numpy as np
 import pytest
 
-from stackx.config import load
-from stackx.criteria import Check, Criteria, judge
+from stackx.config.experiment import load
+from stackx.bench.criteria import Check, Criteria, judge
 from stackx.models.planar import measures
-from stackx.runner import run_experiment
+from stackx.run.runner import run_experiment
 from stackx.scenes.planar import Dominoes, Planar, PlanarParams, Wall
 from tests.conftest import CONFIGS
 from tests.planar.hand_states import boxes

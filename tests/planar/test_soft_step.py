@@ -108,10 +108,10 @@ def test_stiff_soft_contacts_hold_the_heavy_slab_off_centre() -> None:
     """configs/planar/heavy-slab.yaml: 100 kg 0.3 m off centre on a 1 kg box. A soft contact sinks by its load
     over its effective mass over (2 pi hertz)^2, so at 30 Hz the light box's corners sink 5 cm under the slab;
     as stiff as 8 substeps allow (60 Hz), 16 passes a step, it stands by every criterion of the bench."""
-    from stackx.config import load
-    from stackx.criteria import Criteria, judge
+    from stackx.config.experiment import load
+    from stackx.bench.criteria import Criteria, judge
     from stackx.models.planar import measures
-    from stackx.runner import run_experiment
+    from stackx.run.runner import run_experiment
     from tests.conftest import CONFIGS
 
     spec = load(str(CONFIGS / "planar" / "heavy-slab.yaml"), ["outputs=[]"])

@@ -31,7 +31,7 @@ def test_duplicate_name_names_both_sources(cli: Cli, tmp_path: Path) -> None:
     plugins.mkdir()
     (plugins / "again.py").write_text(textwrap.dedent("""
         from stackx.registry import solvers
-        from stackx.solvers.pgs import PGS
+        from stackx.solvers.column.pgs import PGS
 
         @solvers.register("pgs")
         class Again(PGS):
@@ -64,7 +64,7 @@ def test_entry_point_plugins_are_listed_without_import(tmp_path: Path) -> None:
     (site / "fancy_solvers.py").write_text(textwrap.dedent("""
         import os
         open(os.environ["FANCY_MARK"], "w").close()
-        from stackx.solvers.pgs import PGS
+        from stackx.solvers.column.pgs import PGS
 
         class Fancy(PGS):
             '''The lab solver under another name.'''

@@ -6,7 +6,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from stackx.gfxlib import Canvas
+from stackx.render.gfxlib import Canvas
 from tests.lab.reference import read_png
 
 W = (255, 255, 255)

@@ -68,7 +68,7 @@ def test_too_little_free_space_is_refused_before_writing(earlier: Path, tmp_path
     out = tmp_path / "out"
     shutil.copytree(earlier, out)
     before = snapshot(out)
-    monkeypatch.setattr("stackx.folder.shutil.disk_usage",
+    monkeypatch.setattr("stackx.output.folder.shutil.disk_usage",
                         lambda path: shutil._ntuple_diskusage(10 << 30, (10 << 30) - 4096, 4096))  # type: ignore
     result = CliRunner().invoke(app, ["run", str(CONFIGS / "06-stack.yaml"), "--out", str(out), "-q"])
     assert result.exit_code == 1, result.output
@@ -78,7 +78,7 @@ def test_too_little_free_space_is_refused_before_writing(earlier: Path, tmp_path
 
 
 def test_a_second_writer_waits_for_the_first_and_says_so(tmp_path: Path) -> None:
-    from stackx.folder import FolderLock
+    from stackx.output.folder import FolderLock
 
     out = tmp_path / "out"
     lock = FolderLock(tmp_path / ".out.stackx-lock")
@@ -105,7 +105,7 @@ def test_three_runs_into_one_folder_at_once_all_land(tmp_path: Path) -> None:
 def test_init_failing_part_way_leaves_nothing(tmp_path: Path) -> None:
     """``stackx init`` writes file by file (its folder may be the working folder, or hold the user's files);
     a write failing part-way takes back the files and folders it had made."""
-    from stackx.starter import shipped_files, source_root
+    from stackx.config.starter import shipped_files, source_root
 
     root = source_root()
     sizes = [(root / name).stat().st_size for name in sorted(shipped_files(root))]

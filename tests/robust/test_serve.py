@@ -18,7 +18,7 @@ from tests.conftest import Cli
 @pytest.fixture
 def site(tmp_path: Path) -> Iterator[tuple[Path, int]]:
     """A served folder with a page, a sub-folder without a page, and links in and out; its port."""
-    from stackx.serve import FolderHandler
+    from stackx.output.serve import FolderHandler
 
     root = tmp_path / "site"
     (root / "sub").mkdir(parents=True)

@@ -12,7 +12,7 @@ import pytest
 import yaml
 
 from stackx.errors import ConfigError
-from stackx.yamlsrc import MAX_ALIAS_NODES, load_text
+from stackx.config.yamlsrc import MAX_ALIAS_NODES, load_text
 from tests.conftest import CONFIGS, REPO
 
 LEVELS, WIDTH = 10, 9
@@ -98,7 +98,7 @@ def test_aliases_adding_exactly_the_bound_load_as_if_written_out() -> None:
 
 def test_a_config_reusing_a_box_through_an_alias_runs_as_written_out(tmp_path: Path) -> None:
     """The everyday use: a box written once, anchored, and reused in a second run that adds one above it."""
-    from stackx.config import load
+    from stackx.config.experiment import load
 
     shared = tmp_path / "shared.yaml"
     sink = (CONFIGS / "03-sink.yaml").read_text()

@@ -12,9 +12,9 @@ import numpy as np
 import pytest
 
 from stackx import kernel, registry
-from stackx.config import load
+from stackx.config.experiment import load
 from stackx.errors import ConfigError
-from stackx.runner import run_experiment
+from stackx.run.runner import run_experiment
 from stackx.models.column.state import ColumnState
 from tests.conftest import CONFIGS
 from tests.solvers.columns import solver, solver_names

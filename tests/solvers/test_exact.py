@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 from stackx.solvers.contacts import prepare
-from stackx.solvers.exact import exact_velocities, solve_column, workspace
-from stackx.solvers.pgs import velocity_pass
+from stackx.solvers.column.exact import exact_velocities, solve_column, workspace
+from stackx.solvers.column.pgs import velocity_pass
 
 DT = 1 / 60
 TOLERANCE = 1e-9

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from stackx import kernel
-from stackx.solvers.position import GLOBAL, SEQUENTIAL, correct_column, position_workspace, project_positions
+from stackx.solvers.column.position import GLOBAL, SEQUENTIAL, correct_column, position_workspace, project_positions
 from tests.bench.reference import ordered_projection
 from tests.solvers.columns import solver
 
@@ -99,7 +99,7 @@ def test_swept_contacts_land_a_fast_box_without_penetration() -> None:
 
 def test_the_sequential_stage_is_the_labs() -> None:
     """SEQUENTIAL with no cap is correct() contact by contact, bit for bit (the lab's numbers depend on it)."""
-    from stackx.correct import correct
+    from stackx.solvers.correct import correct
 
     y = [0.45, 1.38, 2.2, 3.25]
     half, inv = [0.5] * 4, [1.0, 1.0, 0.5, 1.0]

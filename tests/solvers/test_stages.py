@@ -8,12 +8,12 @@ import numpy as np
 import pytest
 
 from stackx.solvers.contacts import prepare, velocity_iteration, warm_start
-from stackx.solvers.jacobi import jacobi_iteration
-from stackx.solvers.ngs import position_iteration
-from stackx.solvers.position import correct_positions
-from stackx.solvers.soft_step import soft
-from stackx.solvers.split_impulse import pseudo_solve
-from stackx.solvers.xpbd import project
+from stackx.solvers.column.jacobi import jacobi_iteration
+from stackx.solvers.column.ngs import position_iteration
+from stackx.solvers.column.position import correct_positions
+from stackx.solvers.column.soft_step import soft
+from stackx.solvers.column.split_impulse import pseudo_solve
+from stackx.solvers.column.xpbd import project
 from tests.solvers.columns import column, run, solver
 
 DT = 1 / 60

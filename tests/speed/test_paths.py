@@ -20,11 +20,11 @@ import pytest
 import yaml
 
 from stackx import kernel, registry
-from stackx.config import load
+from stackx.config.experiment import load
 from stackx.errors import StackxError
-from stackx.results import ExperimentResult
-from stackx.runner import run_experiment
-from stackx.session import run_all
+from stackx.run.results import ExperimentResult
+from stackx.run.runner import run_experiment
+from stackx.run.session import run_all
 from stackx.models.column.state import ColumnState
 from tests.conftest import CONFIGS, REPO
 from tests.solvers.columns import solver_names

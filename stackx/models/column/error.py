@@ -35,15 +35,15 @@ from __future__ import annotations
 
 import numpy as np
 
-from stackx.criteria import Criteria
+from stackx.bench.criteria import Criteria
 from stackx.kernel import kernel
 from stackx.models.column.state import ColumnState
 from stackx.models.steplog import RowLog
-from stackx.runner import OnStep
-from stackx.solvers.exact import solve_step
-from stackx.solvers.isotonic import workspace
-from stackx.solvers.pgs import gravity
-from stackx.spec import RunSpec
+from stackx.run.runner import OnStep
+from stackx.solvers.column.exact import solve_step
+from stackx.solvers.column.isotonic import workspace
+from stackx.solvers.column.pgs import gravity
+from stackx.config.spec import RunSpec
 
 
 class BatchLog:
@@ -117,7 +117,7 @@ def log_step(k: int, y: np.ndarray, v: np.ndarray, after_y: np.ndarray, after_v:
 
 
 class StepLog:
-    """A ``stackx.runner.StepObserver`` keeping a ``RowLog`` per run name."""
+    """A ``stackx.run.runner.StepObserver`` keeping a ``RowLog`` per run name."""
 
     def __init__(self, criteria: Criteria) -> None:
         self.criteria = criteria

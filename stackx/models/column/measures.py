@@ -14,7 +14,7 @@ from stackx.models.column.state import ColumnState
 from stackx.models.touch import TOUCH_GAP
 
 if TYPE_CHECKING:
-    from stackx.results import RunResult
+    from stackx.run.results import RunResult
 
 MOTION_WINDOW = 60  # steps over which the final motion is measured
 

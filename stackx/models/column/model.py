@@ -13,7 +13,7 @@ from stackx.models.column.state import ColumnState
 from stackx.registry import models
 
 if TYPE_CHECKING:
-    from stackx.results import RunResult
+    from stackx.run.results import RunResult
 
 
 @models.register("column")

@@ -40,16 +40,16 @@ from typing import Any
 
 import numpy as np
 
-from stackx.criteria import Criteria
+from stackx.bench.criteria import Criteria
 from stackx.models import steplog
 from stackx.models.planar.conditions import approach
 from stackx.models.planar.measures import half_diagonal, max_depth
 from stackx.models.planar.reference import ReferenceFailure
 from stackx.models.planar.state import PlanarState
 from stackx.models.planar.step_problem import ReferenceStep
-from stackx.runner import OnStep
+from stackx.run.runner import OnStep
 from stackx.solvers.planar.reach import reach_in_step
-from stackx.spec import RunSpec
+from stackx.config.spec import RunSpec
 
 
 class BatchLog:
@@ -137,7 +137,7 @@ def log_step(log: BatchLog, k: int, before: PlanarState, after: PlanarState, g: 
 
 
 class StepLog:
-    """A ``stackx.runner.StepObserver`` keeping a ``RowLog`` per run name."""
+    """A ``stackx.run.runner.StepObserver`` keeping a ``RowLog`` per run name."""
 
     def __init__(self, criteria: Criteria) -> None:
         self.criteria = criteria

@@ -23,7 +23,7 @@ from stackx.models.planar.monitor import contact_room
 from stackx.models.planar.state import PlanarState
 
 if TYPE_CHECKING:
-    from stackx.results import RunResult
+    from stackx.run.results import RunResult
 
 MOTION_WINDOW = 60  # steps over which the final motion is measured, as on the column
 

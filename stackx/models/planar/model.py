@@ -13,8 +13,8 @@ from stackx.models.planar.state import PlanarState
 from stackx.registry import models
 
 if TYPE_CHECKING:
-    from stackx.results import RunResult
-    from stackx.spec import RunSpec
+    from stackx.run.results import RunResult
+    from stackx.config.spec import RunSpec
 
 
 @models.register("planar")

@@ -12,7 +12,7 @@ sqrt(f_a f_b), as stackx does) and restitution 0, its mass and moment of inertia
 velocities come back for all bodies at once in single precision; the angle, which Box2D keeps as a rotation,
 is read as atan2 and unwrapped against the last step's.
 
-The solver is the soft step that ``stackx.solvers.soft_step`` transcribes: ``substeps`` substeps each with a
+The solver is the soft step that ``stackx.solvers.column.soft_step`` transcribes: ``substeps`` substeps each with a
 warm-started solve whose bias treats overlap as a stiff, damped spring (``contact_hertz``, at most a quarter of
 the substep rate, twice as stiff against static bodies; ``contact_damping_ratio``), pushing out at most
 ``contact_push_velocity``, then a relax pass without bias. Contacts take part from 0.02 m apart (Box2D's

@@ -158,7 +158,7 @@ class Engine(Solver):
 
     def __copy__(self) -> Engine:
         """A twin that builds worlds of its own from the state it is first given: an engine's world cannot be
-        copied in general, so a replay from a saved state (``stackx.watch``) starts without the contact memory
+        copied in general, so a replay from a saved state (``stackx.run.watch``) starts without the contact memory
         the original had at that point."""
         twin = object.__new__(type(self))
         twin.__dict__.update(self.__dict__)

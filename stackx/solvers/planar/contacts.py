@@ -52,7 +52,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from stackx.correct import correct
+from stackx.solvers.correct import correct
 from stackx.kernel import kernel, leaf
 from stackx.models.planar.collide import collide
 from stackx.models.planar.monitor import observe, observe_points

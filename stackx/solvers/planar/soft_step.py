@@ -16,7 +16,7 @@ times with ``h = dt / substeps``:
 5. relax: the same pass without the spring's bias, so the push-out speed does not stay in the boxes.
 
 Restitution is 0. With ``w = 2 pi hertz``, ``z`` the damping ratio and ``h`` the substep the soft
-coefficients are Box2D v3's (``stackx.solvers.soft_step.soft``, shared with the column): the separating
+coefficients are Box2D v3's (``stackx.solvers.column.soft_step.soft``, shared with the column): the separating
 speed asked per metre of overlap ``w / (2z + h w)``, capped at ``push_out``, the share of the full impulse a
 visit applies, and the share of the accumulated impulse it lets go. The contact frequency is capped at an
 eighth of the substep rate, as from Box2D v3.1.1 (v3.0 and v3.1.0, and the column's soft step, allow a
@@ -48,7 +48,7 @@ from stackx.solvers.planar.contacts import (A, B, KN, KT, MU, NX, NY, PN, PT, co
                                             manifold_velocity, observed_contacts, prepare, recall, remember,
                                             warm_start)
 from stackx.solvers.planar.substep import base_separations, manifold_end, moved, separation, step_start
-from stackx.solvers.soft_step import STATIC_HERTZ, SoftStepParams, soft
+from stackx.solvers.column.soft_step import STATIC_HERTZ, SoftStepParams, soft
 
 
 SUBSTEP_HERTZ = 0.125  # the contact frequency is at most this share of the substep rate (Box2D v3.1.1 on)

@@ -54,7 +54,7 @@ from stackx.solvers.planar.contacts import (A, B, MU, NX, NY, PN, PT, RAX, RAY, 
                                             two_point_lcp)
 from stackx.solvers.planar.substep import (anchor, base_separations, manifold_end, moved, moved_body, separation,
                                            step_start)
-from stackx.solvers.xpbd import XPBDParams
+from stackx.solvers.column.xpbd import XPBDParams
 
 
 class PlanarXPBDParams(XPBDParams):
