@@ -57,7 +57,7 @@ as it nears the answer), and grows tenfold after one whose problem was not solve
 Once the true residual is below ``POLISH``, full Newton rounds (mending faces, as above) try to land on the
 exact answer of the modes read there, and again whenever those modes change or the residual has fallen
 tenfold. With friction the regularized problem is not monotone, so the walk is not sure to end; it lands
-most steps every Newton try failed on (see the README's planar reference section for counts).
+most steps every Newton try failed on; the steps it still misses are counted per run (docs/planar.md).
 
 **Loops of held faces: probing the stall.** On a pile seen through a speculative margin (``planar-xpbd``'s
 5 cm), a box sitting a hair tilted may rest on one point that closes a gap of a few micrometres (a target of a
@@ -79,7 +79,7 @@ every Newton try cycles, the proximal point method wanders, and the forced slide
 then raises (``ReferenceFailure`` with the best residual reached) and the bench counts the step as
 ``unsolved``, shown beside the error, never silently skipped. The known cases are on a 20-row pyramid: under
 ``planar-xpbd``, stalls that need several slides at once and walks that crawl; under ``planar-soft-step`` at 64
-substeps, walks that crawl while the pile settles (see the README).
+substeps, walks that crawl while the pile settles (docs/planar.md).
 
 **Why exact.** The answer is returned only once the contract's own measure, ``problem.residual`` of the
 final impulses (complementarity of every normal, the friction box of every tangent, velocities recomputed
