@@ -79,25 +79,33 @@ def inverse_masses(problem: ContactProblem) -> np.ndarray:
     return inv
 
 
+def jacobian_rows(problem: ContactProblem) -> tuple[np.ndarray, np.ndarray]:
+    """``J`` row by row, as two (2m, 6) arrays: row ``k`` the normal of point ``k``, row ``m + k`` its
+    tangent; per row the six entries of its two bodies (a's vx, vy, w, then b's) and their columns ``3i, 3i + 1,
+    3i + 2`` of body ``i``. A ground side has column ``3n`` (no velocity) and entries 0. Dense in the rows, so
+    products with ``J`` and ``J^T`` are a gather and a ``bincount``, with no sparse matrix object."""
+    m, n = problem.points, problem.bodies
+    values, columns = np.zeros((2 * m, 6)), np.full((2 * m, 6), 3 * n, np.int64)
+    for offset, d in ((0, problem.normal), (m, problem.tangent())):
+        for side, (body, r, sign) in enumerate(((problem.body_a, problem.ra, -1.0), (problem.body_b, problem.rb, 1.0))):
+            moving = body != GROUND
+            arm = r[:, 0] * d[:, 1] - r[:, 1] * d[:, 0]
+            for axis, value in enumerate((d[:, 0], d[:, 1], arm)):
+                values[offset:offset + m, 3 * side + axis] = np.where(moving, sign * value, 0.0)
+                columns[offset:offset + m, 3 * side + axis] = np.where(moving, 3 * body + axis, 3 * n)
+    return values, columns
+
+
 def jacobian(problem: ContactProblem) -> object:
     """``J`` (2m x 3n, scipy CSR): row ``k`` the normal of point ``k``, row ``m + k`` its tangent; body ``i``'s
     columns ``3i, 3i + 1, 3i + 2`` (vx, vy, w). ``J v`` is the points' relative velocities."""
     from scipy import sparse
 
+    values, columns = jacobian_rows(problem)
     m, n = problem.points, problem.bodies
-    t = problem.tangent()
-    rows, cols, vals = [], [], []
-    for offset, d in ((0, problem.normal), (m, t)):
-        for body, r, sign in ((problem.body_a, problem.ra, -1.0), (problem.body_b, problem.rb, 1.0)):
-            moving = np.flatnonzero(body != GROUND)
-            bi, rm, dm = body[moving], r[moving], d[moving]
-            arm = rm[:, 0] * dm[:, 1] - rm[:, 1] * dm[:, 0]
-            for axis, value in enumerate((dm[:, 0], dm[:, 1], arm)):
-                rows.append(offset + moving)
-                cols.append(3 * bi + axis)
-                vals.append(sign * value)
-    return sparse.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
-                             shape=(2 * m, 3 * n))
+    keep = columns < 3 * n
+    rows = np.broadcast_to(np.arange(2 * m)[:, None], columns.shape)
+    return sparse.csr_matrix((values[keep], (rows[keep], columns[keep])), shape=(2 * m, 3 * n))
 
 
 def _side(problem: ContactProblem, body: np.ndarray, r: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -117,7 +117,7 @@ from functools import partial
 import numpy as np
 
 from stackx.kernel import compiled, enabled, kernel
-from stackx.models.planar.problem import (GROUND, ContactProblem, effective_masses, inverse_masses, jacobian,
+from stackx.models.planar.problem import (GROUND, ContactProblem, effective_masses, inverse_masses, jacobian_rows,
                                           point_residuals, residual, velocities_after)
 
 TOLERANCE = 1e-10  # m/s: the contract's residual the reference reaches
@@ -523,20 +523,28 @@ class ModeSystem:
     normal column carrying its friction too). Eliminating ``q = (h - J_F v) / d`` leaves
     ``(M + G J_F / d) v = M v0 + G h / d``: one unknown per movable degree of freedom (3 per box), however
     many points touch, symmetric unless a point slides; SuperLU factors it in a few milliseconds.
+
+    ``J`` is held row by row (``problem.jacobian_rows``: six entries per row), so ``J x`` is a gather,
+    ``J^T y`` a ``bincount``, and a mode system's matrix is assembled from each free row's 6 x 6 outer
+    product in one pass: the only sparse object a round makes is the matrix it factors. (Built from scipy
+    sparse products instead, the rounds spent about ten times their factorization and solves in making
+    sparse objects and checking their indices.)
     """
 
     def __init__(self, problem: ContactProblem, kn: np.ndarray, kt: np.ndarray, proximal: float = PROXIMAL) -> None:
-        from scipy import sparse
-
         self.m = m = problem.points
         inv = inverse_masses(problem)
-        self.free_dof = inv > 0.0
-        self.inv = inv[self.free_dof]
-        jac = jacobian(problem).tocsc()
-        self.jac = jac
-        self.j_free = jac[:, self.free_dof].tocsr()
-        self.v0 = problem.velocity.reshape(-1).copy()
-        self.fixed_u = jac[:, ~self.free_dof] @ self.v0[~self.free_dof]
+        free_dof = inv > 0.0
+        self.dof = dof = int(free_dof.sum())  # movable degrees of freedom; index ``dof`` stands for none
+        where = np.full(inv.shape[0] + 1, dof, np.int64)
+        where[:-1][free_dof] = np.arange(dof)
+        values, columns = jacobian_rows(problem)
+        self.values, self.columns = values, where[columns]
+        self.inv = inv[free_dof]
+        v0 = problem.velocity.reshape(-1)
+        self.v0 = v0[free_dof].copy()
+        fixed = np.append(np.where(free_dof, 0.0, v0), 0.0)  # the velocities J sees but no impulse changes
+        self.fixed_u = (values * fixed[columns]).sum(axis=1)
         self.k = np.concatenate([kn, kt])
         self.target = np.concatenate([problem.target, np.zeros(m)])
         self.cone = problem.friction * kn / kt  # the friction bound in q units: |q_t| <= cone q_n
@@ -546,7 +554,15 @@ class ModeSystem:
         self.kept = False
         self.proximal = proximal  # the weight d; may be changed between rounds (the factorization follows)
         self.factored = proximal
-        self.sparse = sparse
+
+    def spread(self, values: np.ndarray, columns: np.ndarray, weights: np.ndarray) -> np.ndarray:
+        """``sum_r weights_r J_r^T`` over the given rows, on the movable degrees of freedom."""
+        return np.bincount(columns.ravel(), (values * weights[:, None]).ravel(), self.dof + 1)[:self.dof]
+
+    def velocities(self, q: np.ndarray) -> np.ndarray:
+        """The movable degrees of freedom's velocities under scaled impulses ``q``, with a 0 appended (the
+        velocity of ``dof``, the column of no velocity)."""
+        return np.append(self.v0 + self.inv * self.spread(self.values, self.columns, self.k * q), 0.0)
 
     def merit(self, q: np.ndarray, center: np.ndarray | None = None) -> float:
         """The contract's residual (m/s) of scaled impulses ``q``, from ``W`` (the min map of every normal,
@@ -566,8 +582,8 @@ class ModeSystem:
     def gap(self, q: np.ndarray, center: np.ndarray | None = None) -> np.ndarray:
         """``J v - target`` (m/s) for the velocities of scaled impulses ``q``, plus ``d (q - center)`` with a
         ``center``."""
-        v = self.v0[self.free_dof] + self.inv * (self.j_free.T @ (self.k * q))
-        gap = self.j_free @ v + self.fixed_u - self.target
+        v = self.velocities(q)
+        gap = (self.values * v[self.columns]).sum(axis=1) + self.fixed_u - self.target
         return gap if center is None else gap + self.proximal * (q - center)
 
     def read(self, q: np.ndarray, center: np.ndarray | None = None) -> np.ndarray:
@@ -583,6 +599,40 @@ class ModeSystem:
             modes[i], modes[m + i], modes[2 * m + i] = True, sign > 0.0, sign < 0.0
         return modes
 
+    def factor(self, held: np.ndarray, plus: np.ndarray, minus: np.ndarray) -> None:
+        """Factor the mode combination's matrix ``M + G J_F / d`` (see the class text)."""
+        from scipy import sparse
+        from scipy.sparse.linalg import splu
+
+        m, dof = self.m, self.dof
+        stick = held & ~plus & ~minus
+        self.free = free = np.flatnonzero(np.concatenate([held, stick]))
+        sign = np.where(plus, 1.0, np.where(minus, -1.0, 0.0))
+        self.j_rows, self.j_columns = self.values[free], self.columns[free]
+        # G: column r of F is k_r J_r^T, plus +-mu k_n J_t^T for a sliding normal (its tangent row has the
+        # same two bodies, so the same six columns)
+        g = self.j_rows * self.k[free][:, None]
+        normal = free < m
+        point = free[normal]
+        g[normal] += (sign * self.mu * self.k[:m])[point][:, None] * self.values[m + point]
+        self.g = g
+        entries = g[:, :, None] * self.j_rows[:, None, :] / self.proximal
+        rows = np.broadcast_to(self.j_columns[:, :, None], entries.shape)
+        cols = np.broadcast_to(self.j_columns[:, None, :], entries.shape)
+        keep = (rows < dof) & (cols < dof)
+        diagonal = np.arange(dof)
+        matrix = sparse.csc_matrix((np.concatenate([1.0 / self.inv, entries[keep]]),
+                                    (np.concatenate([diagonal, rows[keep]]), np.concatenate([diagonal, cols[keep]]))),
+                                   shape=(dof, dof))
+        try:
+            # symmetric unless a point slides: then pivot for stability, as for any unsymmetric matrix
+            symmetric = not (plus.any() or minus.any())
+            self.factors = splu(matrix, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0 if symmetric else 1.0,
+                                options={"SymmetricMode": symmetric})
+        except RuntimeError:  # a singular mode system: the caller goes back to sweeps
+            self.factors = None
+        self.sign = sign
+
     def step(self, q: np.ndarray, slide: dict[int, float] | None = None,
              center: np.ndarray | None = None) -> np.ndarray:
         """One Newton round: the modes read at ``q``, and the scaled impulses that solve that mode
@@ -592,9 +642,7 @@ class ModeSystem:
         ``d (q - center)`` added to every velocity): modes read with that term, and one solve, which is
         that mode combination's exact answer (the regularized system is never singular).
         ``kept`` says the modes (and weight) were the last round's, whose factorization is reused."""
-        from scipy.sparse.linalg import splu
-
-        sparse, m = self.sparse, self.m
+        m = self.m
         modes = self.read(q, center)
         held, plus, minus = modes[:m], modes[m:2 * m], modes[2 * m:]
         for i, sign in (slide or {}).items():
@@ -604,29 +652,12 @@ class ModeSystem:
                      and self.factored == self.proximal)
         if not self.kept:
             self.modes, self.factored = modes, self.proximal
-            stick = held & ~plus & ~minus
-            self.free = free = np.flatnonzero(np.concatenate([held, stick]))
-            self.sign = np.where(plus, 1.0, np.where(minus, -1.0, 0.0))
-            j_rows = self.j_free[free]
-            # G: column r of F is k_r J_r^T, plus +-mu k_n J_t^T for a sliding normal
-            slide_t = self.j_free[m + np.flatnonzero(held)].multiply((self.sign * self.mu)[held][:, None])
-            extra = sparse.vstack([slide_t, sparse.csr_matrix((free.shape[0] - slide_t.shape[0], j_rows.shape[1]))])
-            self.g = ((j_rows + extra).T @ sparse.diags(self.k[free])).tocsc()
-            self.j_rows = j_rows
-            matrix = sparse.diags(1.0 / self.inv) + (self.g @ j_rows) / self.proximal
-            try:
-                # symmetric unless a point slides: then pivot for stability, as for any unsymmetric matrix
-                symmetric = not (plus.any() or minus.any())
-                self.factors = splu(matrix.tocsc(), permc_spec="MMD_AT_PLUS_A",
-                                    diag_pivot_thresh=0.0 if symmetric else 1.0,
-                                    options={"SymmetricMode": symmetric})
-            except RuntimeError:  # a singular mode system: the caller goes back to sweeps
-                self.factors = None
+            self.factor(held, plus, minus)
         if self.factors is None:
             return np.full(2 * m, np.nan)
         free = self.free
         base = self.target[free] - self.fixed_u[free]
-        momentum = self.v0[self.free_dof] / self.inv
+        momentum = self.v0 / self.inv
         out = (q if center is None else center)[free]
         # a wrong mode combination's system may have no answer, and its proximal steps then run off to
         # infinity: that is expected, and the caller's merit (inf or NaN) rejects the step
@@ -634,8 +665,9 @@ class ModeSystem:
             # proximal steps on one factorization converge to the modes' answer; with a center, one step is it
             for _ in range(REFINE if center is None else 1):
                 h = base + self.proximal * out
-                v = self.factors.solve(momentum + self.g @ h / self.proximal)
-                new = (h - self.j_rows @ v) / self.proximal
+                v = np.append(self.factors.solve(momentum + self.spread(self.g, self.j_columns, h) / self.proximal),
+                              0.0)
+                new = (h - (self.j_rows * v[self.j_columns]).sum(axis=1)) / self.proximal
                 change = np.abs(new - out).max(initial=0.0)
                 out = new
                 if change <= 1e-3 * TOLERANCE:
