@@ -43,11 +43,11 @@ from stackx.kernel import kernel, leaf, prange
 from stackx.models.planar.state import PlanarState
 from stackx.registry import solvers
 from stackx.solvers.planar.base import PlanarMemorySolver
-from stackx.solvers.planar.contacts import (A, B, KN, KT, MU, NX, NY, PN, PT, contact_workspace,
-                                            find_contacts, gravity, integrate_positions, manifold_impulse,
-                                            manifold_velocity, observed_contacts, prepare, recall, remember,
-                                            warm_start)
-from stackx.solvers.planar.substep import base_separations, manifold_end, moved, separation, step_start
+from stackx.solvers.planar.contacts import (A, B, DEPTH, NX, NY, PN, PT, PX, PY, contact_workspace,
+                                            effective_mass, find_contacts, gravity, integrate_positions,
+                                            observed_contacts, recall, remember)
+from stackx.solvers.planar.substep import moved, step_start
+from stackx.solvers.planar.wavefront import manifold_starts, wavefronts
 from stackx.solvers.column.soft_step import STATIC_HERTZ, SoftStepParams, soft
 
 
@@ -69,59 +69,176 @@ class PlanarSoftStepParams(SoftStepParams):
                                                "a tall stack sinks and sways")
 
 
-@leaf
-def soft_pass(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, inv_mass: np.ndarray, inv_inertia: np.ndarray,
-              ids: np.ndarray, table: np.ndarray, count: int, base: np.ndarray, since: np.ndarray, h: float,
-              use_bias: bool, push_out: float, softness: np.ndarray) -> None:
-    """One pass over the manifolds in table order, each one's points normal first, then friction.
+# the pass's layout: per manifold, in visit order (ints)
+M_A, M_B, M_FIRST, M_END, M_ROW, M_TABLE = range(6)
+MANIFOLD_COLUMNS = 6
+# per point, in visit order: normal, anchors, effective masses, friction, separation when found less what the
+# anchors give along the normal, accumulated impulses
+P_NX, P_NY, P_RAX, P_RAY, P_RBX, P_RBY, P_KN, P_KT, P_MU, P_BASE, P_PN, P_PT = range(12)
+POINT_COLUMNS = 12
 
-    A point still apart may close its gap within the substep but not more. An overlapping point, with the
-    bias, asks for the spring's separating speed (at most ``push_out``), applies ``mass_scale`` of the full
-    impulse and lets go ``impulse_scale`` of what it holds; without the bias it only stops approach. The
-    normal total stays >= 0 and each point's friction total within ``mu`` times its normal total.
-    ``softness`` holds ``(bias_rate, mass_scale, impulse_scale)`` for two movable bodies (row 0) and for a
-    point with a static side, the ground or a static box (row 1). A manifold's two bodies' velocities and
-    inverse masses are read once, held in locals over its points and written back once (as Box2D v3's
-    contact solver does), which changes no number: its points share those two bodies and no others.
-    """
-    start = 0
-    while start < count:
-        end = manifold_end(ids, start, count)
-        a, b = ids[start, A], ids[start, B]
+
+@leaf
+def lay_out(x: np.ndarray, y: np.ndarray, inv_mass: np.ndarray, inv_inertia: np.ndarray, friction: np.ndarray,
+            ids: np.ndarray, table: np.ndarray, first: np.ndarray, order: np.ndarray, m: int,
+            manifolds: np.ndarray, points: np.ndarray) -> None:
+    """The step's manifolds and points in the order the passes visit them (``order``, from ``wavefronts``),
+    with all a visit reads that does not change within the step, found once: each point's anchors, normal
+    and tangent effective masses, friction and base separation (``contacts.prepare`` and
+    ``substep.base_separations``, the same arithmetic), its impulses as ``recall`` left them in the table, and
+    each manifold's bodies and softness row (1: a static side). The passes then read one row after the other
+    instead of hopping through the table by index."""
+    p = 0
+    for j in range(m):
+        origin = order[j]
+        k0, k1 = first[origin], first[origin + 1]
+        a, b = ids[k0, A], ids[k0, B]
+        imb, iib = inv_mass[b], inv_inertia[b]
+        ima, iia = (inv_mass[a], inv_inertia[a]) if a >= 0 else (0.0, 0.0)
+        manifolds[j, M_A], manifolds[j, M_B], manifolds[j, M_FIRST], manifolds[j, M_END] = a, b, p, p + k1 - k0
+        manifolds[j, M_ROW] = 1 if a < 0 or ima == 0.0 or imb == 0.0 else 0
+        manifolds[j, M_TABLE] = k0
+        for k in range(k0, k1):
+            nx, ny = table[k, NX], table[k, NY]
+            px, py = table[k, PX], table[k, PY]
+            rbx, rby = px - x[b], py - y[b]
+            if a >= 0:
+                rax, ray, mu = px - x[a], py - y[a], np.sqrt(friction[a] * friction[b])
+            else:
+                rax, ray, mu = 0.0, 0.0, friction[b]
+            points[p, P_NX], points[p, P_NY] = nx, ny
+            points[p, P_RAX], points[p, P_RAY], points[p, P_RBX], points[p, P_RBY] = rax, ray, rbx, rby
+            points[p, P_KN] = effective_mass(ima, iia, rax, ray, imb, iib, rbx, rby, nx, ny)
+            points[p, P_KT] = effective_mass(ima, iia, rax, ray, imb, iib, rbx, rby, -ny, nx)
+            points[p, P_MU] = mu
+            points[p, P_BASE] = -table[k, DEPTH] - ((rbx - rax) * nx + (rby - ray) * ny)
+            points[p, P_PN], points[p, P_PT] = table[k, PN], table[k, PT]
+            p += 1
+
+
+@leaf
+def give_back(table: np.ndarray, manifolds: np.ndarray, points: np.ndarray, m: int) -> None:
+    """Each point's accumulated impulses back to its row of the table, where ``remember`` keeps them."""
+    for j in range(m):
+        k = manifolds[j, M_TABLE]
+        for p in range(manifolds[j, M_FIRST], manifolds[j, M_END]):
+            table[k, PN], table[k, PT] = points[p, P_PN], points[p, P_PT]
+            k += 1
+
+
+@leaf
+def impulse_at(vax: float, vay: float, wa: float, vbx: float, vby: float, wb: float, grounded: bool,
+               ima: float, iia: float, imb: float, iib: float, points: np.ndarray, p: int, px: float,
+               py: float) -> tuple[float, float, float, float, float, float]:
+    """``contacts.manifold_impulse`` on the pass's layout: the impulse ``(px, py)`` at point ``p`` on B and its
+    opposite on A, on the manifold's velocities held in locals."""
+    vbx += imb * px
+    vby += imb * py
+    wb += iib * (points[p, P_RBX] * py - points[p, P_RBY] * px)
+    if not grounded:
+        vax -= ima * px
+        vay -= ima * py
+        wa -= iia * (points[p, P_RAX] * py - points[p, P_RAY] * px)
+    return vax, vay, wa, vbx, vby, wb
+
+
+@leaf
+def velocity_at(vax: float, vay: float, wa: float, vbx: float, vby: float, wb: float, grounded: bool,
+                points: np.ndarray, p: int, dx: float, dy: float) -> float:
+    """``contacts.manifold_velocity`` on the pass's layout: the relative velocity at point ``p`` along ``d``."""
+    ux = vbx - wb * points[p, P_RBY]
+    uy = vby + wb * points[p, P_RBX]
+    if not grounded:
+        ux -= vax - wa * points[p, P_RAY]
+        uy -= vay + wa * points[p, P_RAX]
+    return ux * dx + uy * dy
+
+
+@leaf
+def soft_warm_start(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, inv_mass: np.ndarray, inv_inertia: np.ndarray,
+                    manifolds: np.ndarray, points: np.ndarray, m: int) -> None:
+    """``contacts.warm_start`` on the pass's layout: every point's accumulated impulses applied to its bodies,
+    in the order of the passes (which keeps each body's order, so the same sums)."""
+    for j in range(m):
+        a, b = manifolds[j, M_A], manifolds[j, M_B]
         grounded = a < 0
         vax, vay, wa, ima, iia = 0.0, 0.0, 0.0, 0.0, 0.0
         if not grounded:
             vax, vay, wa, ima, iia = vx[a], vy[a], w[a], inv_mass[a], inv_inertia[a]
         vbx, vby, wb, imb, iib = vx[b], vy[b], w[b], inv_mass[b], inv_inertia[b]
-        row = 1 if grounded or ima == 0.0 or imb == 0.0 else 0
-        for k in range(start, end):
-            s = separation(ids, table, base, since, k)
+        for p in range(manifolds[j, M_FIRST], manifolds[j, M_END]):
+            pn, pt = points[p, P_PN], points[p, P_PT]
+            if pn != 0.0 or pt != 0.0:
+                nx, ny = points[p, P_NX], points[p, P_NY]
+                vax, vay, wa, vbx, vby, wb = impulse_at(vax, vay, wa, vbx, vby, wb, grounded, ima, iia, imb, iib,
+                                                        points, p, pn * nx - pt * ny, pn * ny + pt * nx)
+        if not grounded:
+            vx[a], vy[a], w[a] = vax, vay, wa
+        vx[b], vy[b], w[b] = vbx, vby, wb
+
+
+@leaf
+def soft_pass(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, inv_mass: np.ndarray, inv_inertia: np.ndarray,
+              manifolds: np.ndarray, points: np.ndarray, m: int, since: np.ndarray, h: float, use_bias: bool,
+              push_out: float, softness: np.ndarray) -> None:
+    """One pass over the manifolds in the layout's order, each one's points normal first, then friction.
+
+    A point's separation is measured again from how far its bodies have moved and turned since the step
+    began (``substep.separation``, the same arithmetic). A point still apart may close its gap within the
+    substep but not more. An overlapping point, with the bias, asks for the spring's separating speed (at
+    most ``push_out``), applies ``mass_scale`` of the full impulse and lets go ``impulse_scale`` of what it
+    holds; without the bias it only stops approach. The normal total stays >= 0 and each point's friction
+    total within ``mu`` times its normal total. ``softness`` holds ``(bias_rate, mass_scale,
+    impulse_scale)`` for two movable bodies (row 0) and for a point with a static side, the ground or a
+    static box (row 1). A manifold's two bodies' velocities, inverse masses and motions are read once, held
+    in locals over its points and its velocities written back once (as Box2D v3's contact solver does),
+    which changes no number: its points share those two bodies and no others.
+    """
+    for j in range(m):
+        a, b = manifolds[j, M_A], manifolds[j, M_B]
+        start, end, row = manifolds[j, M_FIRST], manifolds[j, M_END], manifolds[j, M_ROW]
+        grounded = a < 0
+        vax, vay, wa, ima, iia = 0.0, 0.0, 0.0, 0.0, 0.0
+        dax, day, ca, sa = 0.0, 0.0, 1.0, 0.0
+        if not grounded:
+            vax, vay, wa, ima, iia = vx[a], vy[a], w[a], inv_mass[a], inv_inertia[a]
+            dax, day, ca, sa = since[a, 0], since[a, 1], since[a, 2], since[a, 3]
+        vbx, vby, wb, imb, iib = vx[b], vy[b], w[b], inv_mass[b], inv_inertia[b]
+        dbx, dby, cb, sb = since[b, 0], since[b, 1], since[b, 2], since[b, 3]
+        bias, scale, let_go = softness[row, 0], softness[row, 1], softness[row, 2]
+        for p in range(start, end):
+            nx, ny = points[p, P_NX], points[p, P_NY]
+            r0x, r0y = points[p, P_RBX], points[p, P_RBY]
+            sx, sy = dbx + (cb * r0x - sb * r0y), dby + (sb * r0x + cb * r0y)
+            if not grounded:
+                r0x, r0y = points[p, P_RAX], points[p, P_RAY]
+                sx -= dax + (ca * r0x - sa * r0y)
+                sy -= day + (sa * r0x + ca * r0y)
+            s = points[p, P_BASE] + sx * nx + sy * ny
             target, mass_scale, impulse_scale = 0.0, 1.0, 0.0
             if s > 0.0:
                 target = -s / h
             elif use_bias:
-                target = min(-softness[row, 0] * s, push_out)
-                mass_scale, impulse_scale = softness[row, 1], softness[row, 2]
-            nx, ny = table[k, NX], table[k, NY]
-            un = manifold_velocity(vax, vay, wa, vbx, vby, wb, grounded, table, k, nx, ny)
-            old = table[k, PN]
-            total = max(old + table[k, KN] * mass_scale * (target - un) - impulse_scale * old, 0.0)
-            vax, vay, wa, vbx, vby, wb = manifold_impulse(vax, vay, wa, vbx, vby, wb, grounded, ima, iia, imb, iib,
-                                                          table, k, (total - old) * nx, (total - old) * ny)
-            table[k, PN] = total
-        for k in range(start, end):
-            nx, ny = table[k, NX], table[k, NY]
-            limit = table[k, MU] * table[k, PN]
-            old = table[k, PT]
-            total = old - table[k, KT] * manifold_velocity(vax, vay, wa, vbx, vby, wb, grounded, table, k, -ny, nx)
+                target = min(-bias * s, push_out)
+                mass_scale, impulse_scale = scale, let_go
+            un = velocity_at(vax, vay, wa, vbx, vby, wb, grounded, points, p, nx, ny)
+            old = points[p, P_PN]
+            total = max(old + points[p, P_KN] * mass_scale * (target - un) - impulse_scale * old, 0.0)
+            vax, vay, wa, vbx, vby, wb = impulse_at(vax, vay, wa, vbx, vby, wb, grounded, ima, iia, imb, iib,
+                                                    points, p, (total - old) * nx, (total - old) * ny)
+            points[p, P_PN] = total
+        for p in range(start, end):
+            nx, ny = points[p, P_NX], points[p, P_NY]
+            limit = points[p, P_MU] * points[p, P_PN]
+            old = points[p, P_PT]
+            total = old - points[p, P_KT] * velocity_at(vax, vay, wa, vbx, vby, wb, grounded, points, p, -ny, nx)
             total = min(max(total, -limit), limit)
-            vax, vay, wa, vbx, vby, wb = manifold_impulse(vax, vay, wa, vbx, vby, wb, grounded, ima, iia, imb, iib,
-                                                          table, k, -(total - old) * ny, (total - old) * nx)
-            table[k, PT] = total
+            vax, vay, wa, vbx, vby, wb = impulse_at(vax, vay, wa, vbx, vby, wb, grounded, ima, iia, imb, iib,
+                                                    points, p, -(total - old) * ny, (total - old) * nx)
+            points[p, P_PT] = total
         if not grounded:
             vx[a], vy[a], w[a] = vax, vay, wa
         vx[b], vy[b], w[b] = vbx, vby, wb
-        start = end
 
 
 @kernel
@@ -144,26 +261,37 @@ def soft_step_advance(x: np.ndarray, y: np.ndarray, angle: np.ndarray, vx: np.nd
         softness[0, 0], softness[0, 1], softness[0, 2] = soft(contact_hertz, damping_ratio[b], h)
         softness[1, 0], softness[1, 1], softness[1, 2] = soft(STATIC_HERTZ * contact_hertz, damping_ratio[b], h)
         ids, table = contact_workspace(keys.shape[1])
-        base = np.empty(keys.shape[1])
+        room = ids.shape[0]
+        first, order, wave, tally = np.empty(room + 1, np.int64), np.empty(room, np.int64), np.empty(
+            room, np.int64), np.empty(room + 1, np.int64)
+        manifolds, points = np.empty((room, MANIFOLD_COLUMNS), np.int64), np.empty((room, POINT_COLUMNS))
+        latest = np.empty(n, np.int64)
         start = np.empty((n, 3))
         since = np.empty((n, 4))
         ids, table, count = find_contacts(xb, yb, ab, hxb, hyb, im, speculative[b], ids, table)
         for _ in range(steps):
-            prepare(xb, yb, im, ii, mub, ids, table, count)
-            if base.shape[0] < count:
-                base = np.empty(ids.shape[0])
-            base_separations(ids, table, count, base)
+            if room < ids.shape[0]:
+                room = ids.shape[0]
+                first, order, wave, tally = np.empty(room + 1, np.int64), np.empty(room, np.int64), np.empty(
+                    room, np.int64), np.empty(room + 1, np.int64)
+                manifolds, points = np.empty((room, MANIFOLD_COLUMNS), np.int64), np.empty((room, POINT_COLUMNS))
+            table[:count, PN] = 0.0
+            table[:count, PT] = 0.0
             if warm[b]:
                 recall(ids, table, count, keys[b], carried[b], held[b])
+            m = manifold_starts(ids, count, first)
+            wavefronts(ids, first, m, latest, wave, tally, order)
+            lay_out(xb, yb, im, ii, mub, ids, table, first, order, m, manifolds, points)
             step_start(xb, yb, ab, start, since)
             for _ in range(substeps[b]):
                 gravity(vyb, im, g[b], h)
-                warm_start(vxb, vyb, wb, im, ii, ids, table, count)
-                soft_pass(vxb, vyb, wb, im, ii, ids, table, count, base, since, h, True, push_out[b], softness)
+                soft_warm_start(vxb, vyb, wb, im, ii, manifolds, points, m)
+                soft_pass(vxb, vyb, wb, im, ii, manifolds, points, m, since, h, True, push_out[b], softness)
                 integrate_positions(xb, yb, ab, vxb, vyb, wb, h)
                 moved(xb, yb, ab, start, since)
                 if relax[b]:
-                    soft_pass(vxb, vyb, wb, im, ii, ids, table, count, base, since, h, False, push_out[b], softness)
+                    soft_pass(vxb, vyb, wb, im, ii, manifolds, points, m, since, h, False, push_out[b], softness)
+            give_back(table, manifolds, points, m)
             held[b] = remember(ids, table, count, keys[b], carried[b])
             ids, table, count = observed_contacts(xb, yb, ab, hxb, hyb, im, speculative[b], ids, table, dt[b],
                                                   last, peak, reach, touched, launch, b)
