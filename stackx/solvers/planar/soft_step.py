@@ -69,176 +69,178 @@ class PlanarSoftStepParams(SoftStepParams):
                                                "a tall stack sinks and sways")
 
 
-# the pass's layout: per manifold, in visit order (ints)
-M_A, M_B, M_FIRST, M_END, M_ROW, M_TABLE = range(6)
-MANIFOLD_COLUMNS = 6
-# per point, in visit order: normal, anchors, effective masses, friction, separation when found less what the
-# anchors give along the normal, accumulated impulses
-P_NX, P_NY, P_RAX, P_RAY, P_RBX, P_RBY, P_KN, P_KT, P_MU, P_BASE, P_PN, P_PT = range(12)
-POINT_COLUMNS = 12
+# the pass's layout, one row per point in the order the passes visit them: its two bodies and its row of the
+# table (ints), and (floats) its normal, anchors, effective masses, friction, separation when found less what
+# the anchors give along the normal, its softness (bias rate, mass scale, impulse scale) and impulses
+L_A, L_B, L_ROW = range(3)
+P_NX, P_NY, P_RAX, P_RAY, P_RBX, P_RBY, P_KN, P_KT, P_MU, P_BASE, P_BIAS, P_SCALE, P_LET_GO, P_PN, P_PT = range(15)
+POINT_COLUMNS = 15
+
+
+@kernel
+def pass_workspace(room: int, bodies: int) -> tuple[np.ndarray, ...]:
+    """Room for the layout of ``room`` points of ``bodies`` bodies: ``(first, order, wave, tally, ends,
+    latest, links, points)``, the scratch of ``wavefront`` and ``lay_out``."""
+    return (np.empty(room + 1, np.int64), np.empty(room, np.int64), np.empty(room, np.int64),
+            np.empty(room + 1, np.int64), np.empty(room + 1, np.int64), np.empty(bodies, np.int64),
+            np.empty((room, 3), np.int64), np.empty((room, POINT_COLUMNS)))
 
 
 @leaf
 def lay_out(x: np.ndarray, y: np.ndarray, inv_mass: np.ndarray, inv_inertia: np.ndarray, friction: np.ndarray,
-            ids: np.ndarray, table: np.ndarray, first: np.ndarray, order: np.ndarray, m: int,
-            manifolds: np.ndarray, points: np.ndarray) -> None:
-    """The step's manifolds and points in the order the passes visit them (``order``, from ``wavefronts``),
-    with all a visit reads that does not change within the step, found once: each point's anchors, normal
-    and tangent effective masses, friction and base separation (``contacts.prepare`` and
-    ``substep.base_separations``, the same arithmetic), its impulses as ``recall`` left them in the table, and
-    each manifold's bodies and softness row (1: a static side). The passes then read one row after the other
-    instead of hopping through the table by index."""
-    p = 0
-    for j in range(m):
-        origin = order[j]
-        k0, k1 = first[origin], first[origin + 1]
-        a, b = ids[k0, A], ids[k0, B]
-        imb, iib = inv_mass[b], inv_inertia[b]
-        ima, iia = (inv_mass[a], inv_inertia[a]) if a >= 0 else (0.0, 0.0)
-        manifolds[j, M_A], manifolds[j, M_B], manifolds[j, M_FIRST], manifolds[j, M_END] = a, b, p, p + k1 - k0
-        manifolds[j, M_ROW] = 1 if a < 0 or ima == 0.0 or imb == 0.0 else 0
-        manifolds[j, M_TABLE] = k0
-        for k in range(k0, k1):
-            nx, ny = table[k, NX], table[k, NY]
-            px, py = table[k, PX], table[k, PY]
-            rbx, rby = px - x[b], py - y[b]
-            if a >= 0:
-                rax, ray, mu = px - x[a], py - y[a], np.sqrt(friction[a] * friction[b])
-            else:
-                rax, ray, mu = 0.0, 0.0, friction[b]
-            points[p, P_NX], points[p, P_NY] = nx, ny
-            points[p, P_RAX], points[p, P_RAY], points[p, P_RBX], points[p, P_RBY] = rax, ray, rbx, rby
-            points[p, P_KN] = effective_mass(ima, iia, rax, ray, imb, iib, rbx, rby, nx, ny)
-            points[p, P_KT] = effective_mass(ima, iia, rax, ray, imb, iib, rbx, rby, -ny, nx)
-            points[p, P_MU] = mu
-            points[p, P_BASE] = -table[k, DEPTH] - ((rbx - rax) * nx + (rby - ray) * ny)
-            points[p, P_PN], points[p, P_PT] = table[k, PN], table[k, PT]
-            p += 1
+            ids: np.ndarray, table: np.ndarray, first: np.ndarray, order: np.ndarray, waves: int,
+            tally: np.ndarray, softness: np.ndarray, ends: np.ndarray, links: np.ndarray,
+            points: np.ndarray) -> None:
+    """The step's points in the order the passes visit them, with all a visit reads that does not change
+    within the step, found once: wave by wave (``order``, ``tally`` from ``wavefronts``), each wave's
+    manifolds' first points, then their second points; ``ends[v]``: where wave ``v``'s points end.
+
+    Per point its bodies and table row (``links``) and its anchors, normal and tangent effective masses,
+    friction and base separation (``contacts.prepare`` and ``substep.base_separations``, the same
+    arithmetic), its softness (``softness`` row 1 where a side is static: the ground or a static box) and
+    its impulses as ``recall`` left them in the table. The passes then read one row after the other."""
+    p, begin = 0, 0
+    for v in range(waves):
+        most = 0
+        for j in range(begin, tally[v]):
+            most = max(most, first[order[j] + 1] - first[order[j]])
+        for q in range(most):
+            for j in range(begin, tally[v]):
+                k = first[order[j]] + q
+                if k >= first[order[j] + 1]:
+                    continue
+                a, b = ids[k, A], ids[k, B]
+                imb, iib = inv_mass[b], inv_inertia[b]
+                ima, iia = (inv_mass[a], inv_inertia[a]) if a >= 0 else (0.0, 0.0)
+                row = 1 if a < 0 or ima == 0.0 or imb == 0.0 else 0
+                nx, ny = table[k, NX], table[k, NY]
+                px, py = table[k, PX], table[k, PY]
+                rbx, rby = px - x[b], py - y[b]
+                if a >= 0:
+                    rax, ray, mu = px - x[a], py - y[a], np.sqrt(friction[a] * friction[b])
+                else:
+                    rax, ray, mu = 0.0, 0.0, friction[b]
+                links[p, L_A], links[p, L_B], links[p, L_ROW] = a, b, k
+                points[p, P_NX], points[p, P_NY] = nx, ny
+                points[p, P_RAX], points[p, P_RAY], points[p, P_RBX], points[p, P_RBY] = rax, ray, rbx, rby
+                points[p, P_KN] = effective_mass(ima, iia, rax, ray, imb, iib, rbx, rby, nx, ny)
+                points[p, P_KT] = effective_mass(ima, iia, rax, ray, imb, iib, rbx, rby, -ny, nx)
+                points[p, P_MU] = mu
+                points[p, P_BASE] = -table[k, DEPTH] - ((rbx - rax) * nx + (rby - ray) * ny)
+                points[p, P_BIAS], points[p, P_SCALE] = softness[row, 0], softness[row, 1]
+                points[p, P_LET_GO] = softness[row, 2]
+                points[p, P_PN], points[p, P_PT] = table[k, PN], table[k, PT]
+                p += 1
+        ends[v] = p
+        begin = tally[v]
 
 
 @leaf
-def give_back(table: np.ndarray, manifolds: np.ndarray, points: np.ndarray, m: int) -> None:
+def give_back(table: np.ndarray, links: np.ndarray, points: np.ndarray, count: int) -> None:
     """Each point's accumulated impulses back to its row of the table, where ``remember`` keeps them."""
-    for j in range(m):
-        k = manifolds[j, M_TABLE]
-        for p in range(manifolds[j, M_FIRST], manifolds[j, M_END]):
-            table[k, PN], table[k, PT] = points[p, P_PN], points[p, P_PT]
-            k += 1
+    for p in range(count):
+        k = links[p, L_ROW]
+        table[k, PN], table[k, PT] = points[p, P_PN], points[p, P_PT]
 
 
 @leaf
-def impulse_at(vax: float, vay: float, wa: float, vbx: float, vby: float, wb: float, grounded: bool,
-               ima: float, iia: float, imb: float, iib: float, points: np.ndarray, p: int, px: float,
-               py: float) -> tuple[float, float, float, float, float, float]:
-    """``contacts.manifold_impulse`` on the pass's layout: the impulse ``(px, py)`` at point ``p`` on B and its
-    opposite on A, on the manifold's velocities held in locals."""
-    vbx += imb * px
-    vby += imb * py
-    wb += iib * (points[p, P_RBX] * py - points[p, P_RBY] * px)
-    if not grounded:
-        vax -= ima * px
-        vay -= ima * py
-        wa -= iia * (points[p, P_RAX] * py - points[p, P_RAY] * px)
-    return vax, vay, wa, vbx, vby, wb
-
-
-@leaf
-def velocity_at(vax: float, vay: float, wa: float, vbx: float, vby: float, wb: float, grounded: bool,
-                points: np.ndarray, p: int, dx: float, dy: float) -> float:
-    """``contacts.manifold_velocity`` on the pass's layout: the relative velocity at point ``p`` along ``d``."""
-    ux = vbx - wb * points[p, P_RBY]
-    uy = vby + wb * points[p, P_RBX]
-    if not grounded:
-        ux -= vax - wa * points[p, P_RAY]
-        uy -= vay + wa * points[p, P_RAX]
+def velocity_at(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, a: int, b: int, points: np.ndarray, p: int,
+                dx: float, dy: float) -> float:
+    """``contacts.relative_velocity`` on the pass's layout: ``((v_B + w_B x r_B) - (v_A + w_A x r_A)) . d`` at
+    point ``p`` of bodies ``a`` (-1: the ground) and ``b``, the same arithmetic in the same order."""
+    ux = vx[b] - w[b] * points[p, P_RBY]
+    uy = vy[b] + w[b] * points[p, P_RBX]
+    if a >= 0:
+        ux -= vx[a] - w[a] * points[p, P_RAY]
+        uy -= vy[a] + w[a] * points[p, P_RAX]
     return ux * dx + uy * dy
 
 
 @leaf
+def impulse_at(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, inv_mass: np.ndarray, inv_inertia: np.ndarray,
+               a: int, b: int, points: np.ndarray, p: int, px: float, py: float) -> None:
+    """``contacts.apply_impulse`` on the pass's layout: the impulse ``(px, py)`` at point ``p`` on body ``b``
+    and its opposite on ``a`` (none on the ground)."""
+    vx[b] += inv_mass[b] * px
+    vy[b] += inv_mass[b] * py
+    w[b] += inv_inertia[b] * (points[p, P_RBX] * py - points[p, P_RBY] * px)
+    if a >= 0:
+        vx[a] -= inv_mass[a] * px
+        vy[a] -= inv_mass[a] * py
+        w[a] -= inv_inertia[a] * (points[p, P_RAX] * py - points[p, P_RAY] * px)
+
+
+@leaf
 def soft_warm_start(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, inv_mass: np.ndarray, inv_inertia: np.ndarray,
-                    manifolds: np.ndarray, points: np.ndarray, m: int) -> None:
+                    links: np.ndarray, points: np.ndarray, count: int) -> None:
     """``contacts.warm_start`` on the pass's layout: every point's accumulated impulses applied to its bodies,
-    in the order of the passes (which keeps each body's order, so the same sums)."""
-    for j in range(m):
-        a, b = manifolds[j, M_A], manifolds[j, M_B]
-        grounded = a < 0
-        vax, vay, wa, ima, iia = 0.0, 0.0, 0.0, 0.0, 0.0
-        if not grounded:
-            vax, vay, wa, ima, iia = vx[a], vy[a], w[a], inv_mass[a], inv_inertia[a]
-        vbx, vby, wb, imb, iib = vx[b], vy[b], w[b], inv_mass[b], inv_inertia[b]
-        for p in range(manifolds[j, M_FIRST], manifolds[j, M_END]):
-            pn, pt = points[p, P_PN], points[p, P_PT]
-            if pn != 0.0 or pt != 0.0:
-                nx, ny = points[p, P_NX], points[p, P_NY]
-                vax, vay, wa, vbx, vby, wb = impulse_at(vax, vay, wa, vbx, vby, wb, grounded, ima, iia, imb, iib,
-                                                        points, p, pn * nx - pt * ny, pn * ny + pt * nx)
-        if not grounded:
-            vx[a], vy[a], w[a] = vax, vay, wa
-        vx[b], vy[b], w[b] = vbx, vby, wb
+    in the layout's order (which keeps each body's order of points, so the same sums)."""
+    for p in range(count):
+        pn, pt = points[p, P_PN], points[p, P_PT]
+        if pn != 0.0 or pt != 0.0:
+            nx, ny = points[p, P_NX], points[p, P_NY]
+            impulse_at(vx, vy, w, inv_mass, inv_inertia, links[p, L_A], links[p, L_B], points, p,
+                       pn * nx - pt * ny, pn * ny + pt * nx)
+
+
+@leaf
+def separation_at(since: np.ndarray, a: int, b: int, points: np.ndarray, p: int) -> float:
+    """``substep.separation`` on the pass's layout: the separation of point ``p`` now (m, negative: overlap),
+    from how far bodies ``a`` (-1: the ground) and ``b`` have moved and turned since the step began."""
+    r0x, r0y = points[p, P_RBX], points[p, P_RBY]
+    sx = since[b, 0] + (since[b, 2] * r0x - since[b, 3] * r0y)
+    sy = since[b, 1] + (since[b, 3] * r0x + since[b, 2] * r0y)
+    if a >= 0:
+        r0x, r0y = points[p, P_RAX], points[p, P_RAY]
+        sx -= since[a, 0] + (since[a, 2] * r0x - since[a, 3] * r0y)
+        sy -= since[a, 1] + (since[a, 3] * r0x + since[a, 2] * r0y)
+    return points[p, P_BASE] + sx * points[p, P_NX] + sy * points[p, P_NY]
 
 
 @leaf
 def soft_pass(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, inv_mass: np.ndarray, inv_inertia: np.ndarray,
-              manifolds: np.ndarray, points: np.ndarray, m: int, since: np.ndarray, h: float, use_bias: bool,
-              push_out: float, softness: np.ndarray) -> None:
-    """One pass over the manifolds in the layout's order, each one's points normal first, then friction.
+              links: np.ndarray, points: np.ndarray, waves: int, ends: np.ndarray, since: np.ndarray, h: float,
+              use_bias: bool, push_out: float) -> None:
+    """One pass over the points wave by wave (``wavefront``), normals first, then friction: within a wave
+    every manifold's first normal, then every second normal, then the frictions the same way. A manifold's
+    visits keep their order (its normals, then its frictions) and the manifolds of a wave share no body, so
+    this is the pass over the manifolds in table order to the bit, with each visit independent of the one
+    before it.
 
     A point's separation is measured again from how far its bodies have moved and turned since the step
-    began (``substep.separation``, the same arithmetic). A point still apart may close its gap within the
-    substep but not more. An overlapping point, with the bias, asks for the spring's separating speed (at
-    most ``push_out``), applies ``mass_scale`` of the full impulse and lets go ``impulse_scale`` of what it
-    holds; without the bias it only stops approach. The normal total stays >= 0 and each point's friction
-    total within ``mu`` times its normal total. ``softness`` holds ``(bias_rate, mass_scale,
-    impulse_scale)`` for two movable bodies (row 0) and for a point with a static side, the ground or a
-    static box (row 1). A manifold's two bodies' velocities, inverse masses and motions are read once, held
-    in locals over its points and its velocities written back once (as Box2D v3's contact solver does),
-    which changes no number: its points share those two bodies and no others.
+    began. A point still apart may close its gap within the substep but not more. An overlapping point, with
+    the bias, asks for the spring's separating speed (at most ``push_out``), applies ``mass_scale`` of the
+    full impulse and lets go ``impulse_scale`` of what it holds; without the bias it only stops approach.
+    The normal total stays >= 0 and each point's friction total within ``mu`` times its normal total.
     """
-    for j in range(m):
-        a, b = manifolds[j, M_A], manifolds[j, M_B]
-        start, end, row = manifolds[j, M_FIRST], manifolds[j, M_END], manifolds[j, M_ROW]
-        grounded = a < 0
-        vax, vay, wa, ima, iia = 0.0, 0.0, 0.0, 0.0, 0.0
-        dax, day, ca, sa = 0.0, 0.0, 1.0, 0.0
-        if not grounded:
-            vax, vay, wa, ima, iia = vx[a], vy[a], w[a], inv_mass[a], inv_inertia[a]
-            dax, day, ca, sa = since[a, 0], since[a, 1], since[a, 2], since[a, 3]
-        vbx, vby, wb, imb, iib = vx[b], vy[b], w[b], inv_mass[b], inv_inertia[b]
-        dbx, dby, cb, sb = since[b, 0], since[b, 1], since[b, 2], since[b, 3]
-        bias, scale, let_go = softness[row, 0], softness[row, 1], softness[row, 2]
-        for p in range(start, end):
-            nx, ny = points[p, P_NX], points[p, P_NY]
-            r0x, r0y = points[p, P_RBX], points[p, P_RBY]
-            sx, sy = dbx + (cb * r0x - sb * r0y), dby + (sb * r0x + cb * r0y)
-            if not grounded:
-                r0x, r0y = points[p, P_RAX], points[p, P_RAY]
-                sx -= dax + (ca * r0x - sa * r0y)
-                sy -= day + (sa * r0x + ca * r0y)
-            s = points[p, P_BASE] + sx * nx + sy * ny
+    begin = 0
+    for v in range(waves):
+        end = ends[v]
+        for p in range(begin, end):
+            a, b = links[p, L_A], links[p, L_B]
+            s = separation_at(since, a, b, points, p)
             target, mass_scale, impulse_scale = 0.0, 1.0, 0.0
             if s > 0.0:
                 target = -s / h
             elif use_bias:
-                target = min(-bias * s, push_out)
-                mass_scale, impulse_scale = scale, let_go
-            un = velocity_at(vax, vay, wa, vbx, vby, wb, grounded, points, p, nx, ny)
+                target = min(-points[p, P_BIAS] * s, push_out)
+                mass_scale, impulse_scale = points[p, P_SCALE], points[p, P_LET_GO]
+            nx, ny = points[p, P_NX], points[p, P_NY]
+            un = velocity_at(vx, vy, w, a, b, points, p, nx, ny)
             old = points[p, P_PN]
             total = max(old + points[p, P_KN] * mass_scale * (target - un) - impulse_scale * old, 0.0)
-            vax, vay, wa, vbx, vby, wb = impulse_at(vax, vay, wa, vbx, vby, wb, grounded, ima, iia, imb, iib,
-                                                    points, p, (total - old) * nx, (total - old) * ny)
+            impulse_at(vx, vy, w, inv_mass, inv_inertia, a, b, points, p, (total - old) * nx, (total - old) * ny)
             points[p, P_PN] = total
-        for p in range(start, end):
+        for p in range(begin, end):
+            a, b = links[p, L_A], links[p, L_B]
             nx, ny = points[p, P_NX], points[p, P_NY]
             limit = points[p, P_MU] * points[p, P_PN]
             old = points[p, P_PT]
-            total = old - points[p, P_KT] * velocity_at(vax, vay, wa, vbx, vby, wb, grounded, points, p, -ny, nx)
+            total = old - points[p, P_KT] * velocity_at(vx, vy, w, a, b, points, p, -ny, nx)
             total = min(max(total, -limit), limit)
-            vax, vay, wa, vbx, vby, wb = impulse_at(vax, vay, wa, vbx, vby, wb, grounded, ima, iia, imb, iib,
-                                                    points, p, -(total - old) * ny, (total - old) * nx)
+            impulse_at(vx, vy, w, inv_mass, inv_inertia, a, b, points, p, -(total - old) * ny, (total - old) * nx)
             points[p, P_PT] = total
-        if not grounded:
-            vx[a], vy[a], w[a] = vax, vay, wa
-        vx[b], vy[b], w[b] = vbx, vby, wb
+        begin = end
 
 
 @kernel
@@ -261,37 +263,30 @@ def soft_step_advance(x: np.ndarray, y: np.ndarray, angle: np.ndarray, vx: np.nd
         softness[0, 0], softness[0, 1], softness[0, 2] = soft(contact_hertz, damping_ratio[b], h)
         softness[1, 0], softness[1, 1], softness[1, 2] = soft(STATIC_HERTZ * contact_hertz, damping_ratio[b], h)
         ids, table = contact_workspace(keys.shape[1])
-        room = ids.shape[0]
-        first, order, wave, tally = np.empty(room + 1, np.int64), np.empty(room, np.int64), np.empty(
-            room, np.int64), np.empty(room + 1, np.int64)
-        manifolds, points = np.empty((room, MANIFOLD_COLUMNS), np.int64), np.empty((room, POINT_COLUMNS))
-        latest = np.empty(n, np.int64)
+        first, order, wave, tally, ends, latest, links, points = pass_workspace(ids.shape[0], n)
         start = np.empty((n, 3))
         since = np.empty((n, 4))
         ids, table, count = find_contacts(xb, yb, ab, hxb, hyb, im, speculative[b], ids, table)
         for _ in range(steps):
-            if room < ids.shape[0]:
-                room = ids.shape[0]
-                first, order, wave, tally = np.empty(room + 1, np.int64), np.empty(room, np.int64), np.empty(
-                    room, np.int64), np.empty(room + 1, np.int64)
-                manifolds, points = np.empty((room, MANIFOLD_COLUMNS), np.int64), np.empty((room, POINT_COLUMNS))
+            if points.shape[0] < ids.shape[0]:
+                first, order, wave, tally, ends, latest, links, points = pass_workspace(ids.shape[0], n)
             table[:count, PN] = 0.0
             table[:count, PT] = 0.0
             if warm[b]:
                 recall(ids, table, count, keys[b], carried[b], held[b])
             m = manifold_starts(ids, count, first)
-            wavefronts(ids, first, m, latest, wave, tally, order)
-            lay_out(xb, yb, im, ii, mub, ids, table, first, order, m, manifolds, points)
+            waves = wavefronts(ids, first, m, latest, wave, tally, order)
+            lay_out(xb, yb, im, ii, mub, ids, table, first, order, waves, tally, softness, ends, links, points)
             step_start(xb, yb, ab, start, since)
             for _ in range(substeps[b]):
                 gravity(vyb, im, g[b], h)
-                soft_warm_start(vxb, vyb, wb, im, ii, manifolds, points, m)
-                soft_pass(vxb, vyb, wb, im, ii, manifolds, points, m, since, h, True, push_out[b], softness)
+                soft_warm_start(vxb, vyb, wb, im, ii, links, points, count)
+                soft_pass(vxb, vyb, wb, im, ii, links, points, waves, ends, since, h, True, push_out[b])
                 integrate_positions(xb, yb, ab, vxb, vyb, wb, h)
                 moved(xb, yb, ab, start, since)
                 if relax[b]:
-                    soft_pass(vxb, vyb, wb, im, ii, manifolds, points, m, since, h, False, push_out[b], softness)
-            give_back(table, manifolds, points, m)
+                    soft_pass(vxb, vyb, wb, im, ii, links, points, waves, ends, since, h, False, push_out[b])
+            give_back(table, links, points, count)
             held[b] = remember(ids, table, count, keys[b], carried[b])
             ids, table, count = observed_contacts(xb, yb, ab, hxb, hyb, im, speculative[b], ids, table, dt[b],
                                                   last, peak, reach, touched, launch, b)

@@ -37,8 +37,9 @@ def manifold_starts(ids: np.ndarray, count: int, first: np.ndarray) -> int:
 
 @leaf
 def wavefronts(ids: np.ndarray, first: np.ndarray, m: int, latest: np.ndarray, wave: np.ndarray,
-               tally: np.ndarray, order: np.ndarray) -> None:
-    """``order[0..m]``: the manifolds (numbered as in ``first``) wave by wave, table order within a wave.
+               tally: np.ndarray, order: np.ndarray) -> int:
+    """``order[0..m]``: the manifolds (numbered as in ``first``) wave by wave, table order within a wave;
+    returns the number of waves, and ``tally[v]`` is where wave ``v`` ends in ``order``.
 
     Scratch: ``latest`` ``(bodies,)``, the last wave that touched each body; ``wave`` ``(m,)``; ``tally``
     ``(m + 1,)``. A counting sort by wave, so linear in the manifolds."""
@@ -62,6 +63,7 @@ def wavefronts(ids: np.ndarray, first: np.ndarray, m: int, latest: np.ndarray, w
             waves = now
     for v in range(1, waves + 1):  # tally[v]: where wave v begins
         tally[v] += tally[v - 1]
-    for j in range(m):
+    for j in range(m):  # tally[v] moves from where wave v begins to where it ends
         order[tally[wave[j]]] = j
         tally[wave[j]] += 1
+    return waves
