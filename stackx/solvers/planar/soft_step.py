@@ -44,9 +44,7 @@ from stackx.models.planar.state import PlanarState
 from stackx.registry import solvers
 from stackx.solvers.planar.base import PlanarMemorySolver
 from stackx.solvers.planar.contacts import (A, B, DEPTH, NX, NY, PN, PT, PX, PY, contact_workspace,
-                                            effective_mass, find_contacts, gravity, integrate_positions,
-                                            observed_contacts, recall, remember)
-from stackx.solvers.planar.substep import moved, step_start
+                                            effective_mass, find_contacts, observed_contacts, recall, remember)
 from stackx.solvers.planar.wavefront import manifold_starts, wavefronts
 from stackx.solvers.column.soft_step import STATIC_HERTZ, SoftStepParams, soft
 
@@ -69,12 +67,17 @@ class PlanarSoftStepParams(SoftStepParams):
                                                "a tall stack sinks and sways")
 
 
-# the pass's layout, one row per point in the order the passes visit them: its two bodies and its row of the
-# table (ints), and (floats) its normal, anchors, effective masses, friction, separation when found less what
-# the anchors give along the normal, its softness (bias rate, mass scale, impulse scale) and impulses
+# the pass's layout, one row per point in the order the passes visit them: its two bodies (the ground is body
+# ``n``, after the boxes) and its row of the table (ints), and (floats) its normal, anchors, effective masses,
+# friction, separation when found less what the anchors give along the normal, its softness (bias rate, mass
+# scale, impulse scale) and impulses
 L_A, L_B, L_ROW = range(3)
 P_NX, P_NY, P_RAX, P_RAY, P_RBX, P_RBY, P_KN, P_KT, P_MU, P_BASE, P_BIAS, P_SCALE, P_LET_GO, P_PN, P_PT = range(15)
 POINT_COLUMNS = 15
+# the bodies as the passes read them, one row each and the ground's last: velocities, inverse mass and
+# inertia, and the motion since the step began (``substep.moved_body``: dx, dy, cosine and sine of the turn)
+V_X, V_Y, V_W, INV_M, INV_I, D_X, D_Y, COS, SIN = range(9)
+BODY_COLUMNS = 9
 
 
 @kernel
@@ -82,8 +85,8 @@ def pass_workspace(room: int, bodies: int) -> tuple[np.ndarray, ...]:
     """Room for the layout of ``room`` points of ``bodies`` bodies: ``(first, order, wave, tally, ends,
     latest, links, points)``, the scratch of ``wavefront`` and ``lay_out``."""
     return (np.empty(room + 1, np.int64), np.empty(room, np.int64), np.empty(room, np.int64),
-            np.empty(room + 1, np.int64), np.empty(room + 1, np.int64), np.empty(bodies, np.int64),
-            np.empty((room, 3), np.int64), np.empty((room, POINT_COLUMNS)))
+            np.empty(room + 1, np.int64), np.empty(room + 1, np.uint64), np.empty(bodies, np.int64),
+            np.empty((room, 3), np.uint64), np.empty((room, POINT_COLUMNS)))
 
 
 @leaf
@@ -99,6 +102,7 @@ def lay_out(x: np.ndarray, y: np.ndarray, inv_mass: np.ndarray, inv_inertia: np.
     friction and base separation (``contacts.prepare`` and ``substep.base_separations``, the same
     arithmetic), its softness (``softness`` row 1 where a side is static: the ground or a static box) and
     its impulses as ``recall`` left them in the table. The passes then read one row after the other."""
+    ground = x.shape[0]
     p, begin = 0, 0
     for v in range(waves):
         most = 0
@@ -120,7 +124,7 @@ def lay_out(x: np.ndarray, y: np.ndarray, inv_mass: np.ndarray, inv_inertia: np.
                     rax, ray, mu = px - x[a], py - y[a], np.sqrt(friction[a] * friction[b])
                 else:
                     rax, ray, mu = 0.0, 0.0, friction[b]
-                links[p, L_A], links[p, L_B], links[p, L_ROW] = a, b, k
+                links[p, L_A], links[p, L_B], links[p, L_ROW] = a if a >= 0 else ground, b, k
                 points[p, P_NX], points[p, P_NY] = nx, ny
                 points[p, P_RAX], points[p, P_RAY], points[p, P_RBX], points[p, P_RBY] = rax, ray, rbx, rby
                 points[p, P_KN] = effective_mass(ima, iia, rax, ray, imb, iib, rbx, rby, nx, ny)
@@ -144,62 +148,103 @@ def give_back(table: np.ndarray, links: np.ndarray, points: np.ndarray, count: i
 
 
 @leaf
-def velocity_at(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, a: int, b: int, points: np.ndarray, p: int,
-                dx: float, dy: float) -> float:
+def load_bodies(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, inv_mass: np.ndarray, inv_inertia: np.ndarray,
+                bodies: np.ndarray) -> None:
+    """The bodies' rows as a step begins: velocities and inverse masses, not moved yet; the ground's row
+    (last) all zeros and no turn. The ground's zeros enter a visit's sums as ``x - 0.0``, which is ``x``, so a
+    visit reads the ground as a body without a test and gets the numbers of skipping it; nothing writes it."""
+    n = vx.shape[0]
+    for i in range(n + 1):
+        if i < n:
+            bodies[i, V_X], bodies[i, V_Y], bodies[i, V_W] = vx[i], vy[i], w[i]
+            bodies[i, INV_M], bodies[i, INV_I] = inv_mass[i], inv_inertia[i]
+        else:
+            bodies[i, V_X], bodies[i, V_Y], bodies[i, V_W], bodies[i, INV_M], bodies[i, INV_I] = 0.0, 0.0, 0.0, 0.0, 0.0
+        bodies[i, D_X], bodies[i, D_Y], bodies[i, COS], bodies[i, SIN] = 0.0, 0.0, 1.0, 0.0
+
+
+@leaf
+def store_velocities(bodies: np.ndarray, vx: np.ndarray, vy: np.ndarray, w: np.ndarray) -> None:
+    """The velocities the step ends with, back to the state."""
+    for i in range(vx.shape[0]):
+        vx[i], vy[i], w[i] = bodies[i, V_X], bodies[i, V_Y], bodies[i, V_W]
+
+
+@leaf
+def body_gravity(bodies: np.ndarray, n: int, g: float, h: float) -> None:
+    """``contacts.gravity`` on the bodies' rows: ``vy += g h`` for every movable body."""
+    for i in range(n):
+        if bodies[i, INV_M] > 0.0:
+            bodies[i, V_Y] += g * h
+
+
+@leaf
+def integrate_moved(x: np.ndarray, y: np.ndarray, angle: np.ndarray, bodies: np.ndarray, start: np.ndarray,
+                    h: float) -> None:
+    """``contacts.integrate_positions`` then ``substep.moved_body`` for every body, in one walk: positions
+    and angles move with the velocities over ``h``, and each body's row learns how far it has come since the
+    step began (``start``)."""
+    for i in range(x.shape[0]):
+        x[i] += bodies[i, V_X] * h
+        y[i] += bodies[i, V_Y] * h
+        angle[i] += bodies[i, V_W] * h
+        bodies[i, D_X], bodies[i, D_Y] = x[i] - start[i, 0], y[i] - start[i, 1]
+        turn = angle[i] - start[i, 2]
+        bodies[i, COS], bodies[i, SIN] = np.cos(turn), np.sin(turn)
+
+
+@leaf
+def velocity_at(bodies: np.ndarray, a: int, b: int, points: np.ndarray, p: int, dx: float, dy: float) -> float:
     """``contacts.relative_velocity`` on the pass's layout: ``((v_B + w_B x r_B) - (v_A + w_A x r_A)) . d`` at
-    point ``p`` of bodies ``a`` (-1: the ground) and ``b``, the same arithmetic in the same order."""
-    ux = vx[b] - w[b] * points[p, P_RBY]
-    uy = vy[b] + w[b] * points[p, P_RBX]
-    if a >= 0:
-        ux -= vx[a] - w[a] * points[p, P_RAY]
-        uy -= vy[a] + w[a] * points[p, P_RAX]
+    point ``p`` of bodies ``a`` and ``b``, the same arithmetic in the same order."""
+    ux = bodies[b, V_X] - bodies[b, V_W] * points[p, P_RBY]
+    uy = bodies[b, V_Y] + bodies[b, V_W] * points[p, P_RBX]
+    ux -= bodies[a, V_X] - bodies[a, V_W] * points[p, P_RAY]
+    uy -= bodies[a, V_Y] + bodies[a, V_W] * points[p, P_RAX]
     return ux * dx + uy * dy
 
 
 @leaf
-def impulse_at(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, inv_mass: np.ndarray, inv_inertia: np.ndarray,
-               a: int, b: int, points: np.ndarray, p: int, px: float, py: float) -> None:
+def impulse_at(bodies: np.ndarray, a: int, b: int, points: np.ndarray, p: int, px: float, py: float,
+               ground: int) -> None:
     """``contacts.apply_impulse`` on the pass's layout: the impulse ``(px, py)`` at point ``p`` on body ``b``
     and its opposite on ``a`` (none on the ground)."""
-    vx[b] += inv_mass[b] * px
-    vy[b] += inv_mass[b] * py
-    w[b] += inv_inertia[b] * (points[p, P_RBX] * py - points[p, P_RBY] * px)
-    if a >= 0:
-        vx[a] -= inv_mass[a] * px
-        vy[a] -= inv_mass[a] * py
-        w[a] -= inv_inertia[a] * (points[p, P_RAX] * py - points[p, P_RAY] * px)
+    bodies[b, V_X] += bodies[b, INV_M] * px
+    bodies[b, V_Y] += bodies[b, INV_M] * py
+    bodies[b, V_W] += bodies[b, INV_I] * (points[p, P_RBX] * py - points[p, P_RBY] * px)
+    if a != ground:
+        bodies[a, V_X] -= bodies[a, INV_M] * px
+        bodies[a, V_Y] -= bodies[a, INV_M] * py
+        bodies[a, V_W] -= bodies[a, INV_I] * (points[p, P_RAX] * py - points[p, P_RAY] * px)
 
 
 @leaf
-def soft_warm_start(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, inv_mass: np.ndarray, inv_inertia: np.ndarray,
-                    links: np.ndarray, points: np.ndarray, count: int) -> None:
+def soft_warm_start(bodies: np.ndarray, links: np.ndarray, points: np.ndarray, count: int) -> None:
     """``contacts.warm_start`` on the pass's layout: every point's accumulated impulses applied to its bodies,
     in the layout's order (which keeps each body's order of points, so the same sums)."""
-    for p in range(count):
+    ground = np.uint64(bodies.shape[0] - 1)
+    for p in range(np.uint64(count)):
         pn, pt = points[p, P_PN], points[p, P_PT]
         if pn != 0.0 or pt != 0.0:
             nx, ny = points[p, P_NX], points[p, P_NY]
-            impulse_at(vx, vy, w, inv_mass, inv_inertia, links[p, L_A], links[p, L_B], points, p,
-                       pn * nx - pt * ny, pn * ny + pt * nx)
+            impulse_at(bodies, links[p, L_A], links[p, L_B], points, p, pn * nx - pt * ny, pn * ny + pt * nx, ground)
 
 
 @leaf
-def separation_at(since: np.ndarray, a: int, b: int, points: np.ndarray, p: int) -> float:
+def separation_at(bodies: np.ndarray, a: int, b: int, points: np.ndarray, p: int) -> float:
     """``substep.separation`` on the pass's layout: the separation of point ``p`` now (m, negative: overlap),
-    from how far bodies ``a`` (-1: the ground) and ``b`` have moved and turned since the step began."""
+    from how far bodies ``a`` and ``b`` have moved and turned since the step began."""
     r0x, r0y = points[p, P_RBX], points[p, P_RBY]
-    sx = since[b, 0] + (since[b, 2] * r0x - since[b, 3] * r0y)
-    sy = since[b, 1] + (since[b, 3] * r0x + since[b, 2] * r0y)
-    if a >= 0:
-        r0x, r0y = points[p, P_RAX], points[p, P_RAY]
-        sx -= since[a, 0] + (since[a, 2] * r0x - since[a, 3] * r0y)
-        sy -= since[a, 1] + (since[a, 3] * r0x + since[a, 2] * r0y)
+    sx = bodies[b, D_X] + (bodies[b, COS] * r0x - bodies[b, SIN] * r0y)
+    sy = bodies[b, D_Y] + (bodies[b, SIN] * r0x + bodies[b, COS] * r0y)
+    r0x, r0y = points[p, P_RAX], points[p, P_RAY]
+    sx -= bodies[a, D_X] + (bodies[a, COS] * r0x - bodies[a, SIN] * r0y)
+    sy -= bodies[a, D_Y] + (bodies[a, SIN] * r0x + bodies[a, COS] * r0y)
     return points[p, P_BASE] + sx * points[p, P_NX] + sy * points[p, P_NY]
 
 
 @leaf
-def soft_pass(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, inv_mass: np.ndarray, inv_inertia: np.ndarray,
-              links: np.ndarray, points: np.ndarray, waves: int, ends: np.ndarray, since: np.ndarray, h: float,
+def soft_pass(bodies: np.ndarray, links: np.ndarray, points: np.ndarray, waves: int, ends: np.ndarray, h: float,
               use_bias: bool, push_out: float) -> None:
     """One pass over the points wave by wave (``wavefront``), normals first, then friction: within a wave
     every manifold's first normal, then every second normal, then the frictions the same way. A manifold's
@@ -213,12 +258,13 @@ def soft_pass(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, inv_mass: np.ndarra
     full impulse and lets go ``impulse_scale`` of what it holds; without the bias it only stops approach.
     The normal total stays >= 0 and each point's friction total within ``mu`` times its normal total.
     """
-    begin = 0
+    ground = np.uint64(bodies.shape[0] - 1)
+    begin = np.uint64(0)
     for v in range(waves):
         end = ends[v]
         for p in range(begin, end):
             a, b = links[p, L_A], links[p, L_B]
-            s = separation_at(since, a, b, points, p)
+            s = separation_at(bodies, a, b, points, p)
             target, mass_scale, impulse_scale = 0.0, 1.0, 0.0
             if s > 0.0:
                 target = -s / h
@@ -226,19 +272,19 @@ def soft_pass(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, inv_mass: np.ndarra
                 target = min(-points[p, P_BIAS] * s, push_out)
                 mass_scale, impulse_scale = points[p, P_SCALE], points[p, P_LET_GO]
             nx, ny = points[p, P_NX], points[p, P_NY]
-            un = velocity_at(vx, vy, w, a, b, points, p, nx, ny)
+            un = velocity_at(bodies, a, b, points, p, nx, ny)
             old = points[p, P_PN]
             total = max(old + points[p, P_KN] * mass_scale * (target - un) - impulse_scale * old, 0.0)
-            impulse_at(vx, vy, w, inv_mass, inv_inertia, a, b, points, p, (total - old) * nx, (total - old) * ny)
+            impulse_at(bodies, a, b, points, p, (total - old) * nx, (total - old) * ny, ground)
             points[p, P_PN] = total
         for p in range(begin, end):
             a, b = links[p, L_A], links[p, L_B]
             nx, ny = points[p, P_NX], points[p, P_NY]
             limit = points[p, P_MU] * points[p, P_PN]
             old = points[p, P_PT]
-            total = old - points[p, P_KT] * velocity_at(vx, vy, w, a, b, points, p, -ny, nx)
+            total = old - points[p, P_KT] * velocity_at(bodies, a, b, points, p, -ny, nx)
             total = min(max(total, -limit), limit)
-            impulse_at(vx, vy, w, inv_mass, inv_inertia, a, b, points, p, -(total - old) * ny, (total - old) * nx)
+            impulse_at(bodies, a, b, points, p, -(total - old) * ny, (total - old) * nx, ground)
             points[p, P_PT] = total
         begin = end
 
@@ -265,7 +311,7 @@ def soft_step_advance(x: np.ndarray, y: np.ndarray, angle: np.ndarray, vx: np.nd
         ids, table = contact_workspace(keys.shape[1])
         first, order, wave, tally, ends, latest, links, points = pass_workspace(ids.shape[0], n)
         start = np.empty((n, 3))
-        since = np.empty((n, 4))
+        bodies = np.empty((n + 1, BODY_COLUMNS))
         ids, table, count = find_contacts(xb, yb, ab, hxb, hyb, im, speculative[b], ids, table)
         for _ in range(steps):
             if points.shape[0] < ids.shape[0]:
@@ -277,15 +323,17 @@ def soft_step_advance(x: np.ndarray, y: np.ndarray, angle: np.ndarray, vx: np.nd
             m = manifold_starts(ids, count, first)
             waves = wavefronts(ids, first, m, latest, wave, tally, order)
             lay_out(xb, yb, im, ii, mub, ids, table, first, order, waves, tally, softness, ends, links, points)
-            step_start(xb, yb, ab, start, since)
+            for i in range(n):
+                start[i, 0], start[i, 1], start[i, 2] = xb[i], yb[i], ab[i]
+            load_bodies(vxb, vyb, wb, im, ii, bodies)
             for _ in range(substeps[b]):
-                gravity(vyb, im, g[b], h)
-                soft_warm_start(vxb, vyb, wb, im, ii, links, points, count)
-                soft_pass(vxb, vyb, wb, im, ii, links, points, waves, ends, since, h, True, push_out[b])
-                integrate_positions(xb, yb, ab, vxb, vyb, wb, h)
-                moved(xb, yb, ab, start, since)
+                body_gravity(bodies, n, g[b], h)
+                soft_warm_start(bodies, links, points, count)
+                soft_pass(bodies, links, points, waves, ends, h, True, push_out[b])
+                integrate_moved(xb, yb, ab, bodies, start, h)
                 if relax[b]:
-                    soft_pass(vxb, vyb, wb, im, ii, links, points, waves, ends, since, h, False, push_out[b])
+                    soft_pass(bodies, links, points, waves, ends, h, False, push_out[b])
+            store_velocities(bodies, vxb, vyb, wb)
             give_back(table, links, points, count)
             held[b] = remember(ids, table, count, keys[b], carried[b])
             ids, table, count = observed_contacts(xb, yb, ab, hxb, hyb, im, speculative[b], ids, table, dt[b],
