@@ -15,6 +15,15 @@ times with ``h = dt / substeps``:
 4. integrate positions and angles with the solved velocities;
 5. relax: the same pass without the spring's bias, so the push-out speed does not stay in the boxes.
 
+How a step is laid out (Box2D v3.1's ``contact_solver.c`` and ``solver.c`` do the same work once a step:
+anchors relative to the centres, normal and tangent masses, the separation when found, the softness, in
+arrays the substeps walk in order, bodies' velocities in one compact array): once a step, ``lay_out``
+writes every point's row with all a visit reads that does not change within the step, in the order the
+passes visit them, and the bodies' velocities, masses and motion since the step began sit in one row each,
+the ground as a last row of zeros. The order is ``wavefront``'s: manifolds in waves that share no body,
+which gives the numbers of visiting them in table order to the bit (see that module) while each visit of a
+wave's pass is independent of the one before it, so the processor overlaps them.
+
 Restitution is 0. With ``w = 2 pi hertz``, ``z`` the damping ratio and ``h`` the substep the soft
 coefficients are Box2D v3's (``stackx.solvers.column.soft_step.soft``, shared with the column): the separating
 speed asked per metre of overlap ``w / (2z + h w)``, capped at ``push_out``, the share of the full impulse a
