@@ -95,7 +95,7 @@ def pass_workspace(room: int, bodies: int) -> tuple[np.ndarray, ...]:
     latest, links, points)``, the scratch of ``wavefront`` and ``lay_out``."""
     return (np.empty(room + 1, np.int64), np.empty(room, np.int64), np.empty(room, np.int64),
             np.empty(room + 1, np.int64), np.empty(room + 1, np.uint64), np.empty(bodies, np.int64),
-            np.empty((room, 3), np.uint64), np.empty((room, POINT_COLUMNS)))
+            np.empty((room, 3), np.uint64), np.empty((POINT_COLUMNS, room)))
 
 
 @leaf
@@ -134,15 +134,15 @@ def lay_out(x: np.ndarray, y: np.ndarray, inv_mass: np.ndarray, inv_inertia: np.
                 else:
                     rax, ray, mu = 0.0, 0.0, friction[b]
                 links[p, L_A], links[p, L_B], links[p, L_ROW] = a if a >= 0 else ground, b, k
-                points[p, P_NX], points[p, P_NY] = nx, ny
-                points[p, P_RAX], points[p, P_RAY], points[p, P_RBX], points[p, P_RBY] = rax, ray, rbx, rby
-                points[p, P_KN] = effective_mass(ima, iia, rax, ray, imb, iib, rbx, rby, nx, ny)
-                points[p, P_KT] = effective_mass(ima, iia, rax, ray, imb, iib, rbx, rby, -ny, nx)
-                points[p, P_MU] = mu
-                points[p, P_BASE] = -table[k, DEPTH] - ((rbx - rax) * nx + (rby - ray) * ny)
-                points[p, P_BIAS], points[p, P_SCALE] = softness[row, 0], softness[row, 1]
-                points[p, P_LET_GO] = softness[row, 2]
-                points[p, P_PN], points[p, P_PT] = table[k, PN], table[k, PT]
+                points[P_NX, p], points[P_NY, p] = nx, ny
+                points[P_RAX, p], points[P_RAY, p], points[P_RBX, p], points[P_RBY, p] = rax, ray, rbx, rby
+                points[P_KN, p] = effective_mass(ima, iia, rax, ray, imb, iib, rbx, rby, nx, ny)
+                points[P_KT, p] = effective_mass(ima, iia, rax, ray, imb, iib, rbx, rby, -ny, nx)
+                points[P_MU, p] = mu
+                points[P_BASE, p] = -table[k, DEPTH] - ((rbx - rax) * nx + (rby - ray) * ny)
+                points[P_BIAS, p], points[P_SCALE, p] = softness[row, 0], softness[row, 1]
+                points[P_LET_GO, p] = softness[row, 2]
+                points[P_PN, p], points[P_PT, p] = table[k, PN], table[k, PT]
                 p += 1
         ends[v] = p
         begin = tally[v]
@@ -153,7 +153,7 @@ def give_back(table: np.ndarray, links: np.ndarray, points: np.ndarray, count: i
     """Each point's accumulated impulses back to its row of the table, where ``remember`` keeps them."""
     for p in range(count):
         k = links[p, L_ROW]
-        table[k, PN], table[k, PT] = points[p, P_PN], points[p, P_PT]
+        table[k, PN], table[k, PT] = points[P_PN, p], points[P_PT, p]
 
 
 @leaf
@@ -165,26 +165,26 @@ def load_bodies(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, inv_mass: np.ndar
     n = vx.shape[0]
     for i in range(n + 1):
         if i < n:
-            bodies[i, V_X], bodies[i, V_Y], bodies[i, V_W] = vx[i], vy[i], w[i]
-            bodies[i, INV_M], bodies[i, INV_I] = inv_mass[i], inv_inertia[i]
+            bodies[V_X, i], bodies[V_Y, i], bodies[V_W, i] = vx[i], vy[i], w[i]
+            bodies[INV_M, i], bodies[INV_I, i] = inv_mass[i], inv_inertia[i]
         else:
-            bodies[i, V_X], bodies[i, V_Y], bodies[i, V_W], bodies[i, INV_M], bodies[i, INV_I] = 0.0, 0.0, 0.0, 0.0, 0.0
-        bodies[i, D_X], bodies[i, D_Y], bodies[i, COS], bodies[i, SIN] = 0.0, 0.0, 1.0, 0.0
+            bodies[V_X, i], bodies[V_Y, i], bodies[V_W, i], bodies[INV_M, i], bodies[INV_I, i] = 0.0, 0.0, 0.0, 0.0, 0.0
+        bodies[D_X, i], bodies[D_Y, i], bodies[COS, i], bodies[SIN, i] = 0.0, 0.0, 1.0, 0.0
 
 
 @leaf
 def store_velocities(bodies: np.ndarray, vx: np.ndarray, vy: np.ndarray, w: np.ndarray) -> None:
     """The velocities the step ends with, back to the state."""
     for i in range(vx.shape[0]):
-        vx[i], vy[i], w[i] = bodies[i, V_X], bodies[i, V_Y], bodies[i, V_W]
+        vx[i], vy[i], w[i] = bodies[V_X, i], bodies[V_Y, i], bodies[V_W, i]
 
 
 @leaf
 def body_gravity(bodies: np.ndarray, n: int, g: float, h: float) -> None:
     """``contacts.gravity`` on the bodies' rows: ``vy += g h`` for every movable body."""
     for i in range(n):
-        if bodies[i, INV_M] > 0.0:
-            bodies[i, V_Y] += g * h
+        if bodies[INV_M, i] > 0.0:
+            bodies[V_Y, i] += g * h
 
 
 @leaf
@@ -194,22 +194,22 @@ def integrate_moved(x: np.ndarray, y: np.ndarray, angle: np.ndarray, bodies: np.
     and angles move with the velocities over ``h``, and each body's row learns how far it has come since the
     step began (``start``)."""
     for i in range(x.shape[0]):
-        x[i] += bodies[i, V_X] * h
-        y[i] += bodies[i, V_Y] * h
-        angle[i] += bodies[i, V_W] * h
-        bodies[i, D_X], bodies[i, D_Y] = x[i] - start[i, 0], y[i] - start[i, 1]
+        x[i] += bodies[V_X, i] * h
+        y[i] += bodies[V_Y, i] * h
+        angle[i] += bodies[V_W, i] * h
+        bodies[D_X, i], bodies[D_Y, i] = x[i] - start[i, 0], y[i] - start[i, 1]
         turn = angle[i] - start[i, 2]
-        bodies[i, COS], bodies[i, SIN] = np.cos(turn), np.sin(turn)
+        bodies[COS, i], bodies[SIN, i] = np.cos(turn), np.sin(turn)
 
 
 @leaf
 def velocity_at(bodies: np.ndarray, a: int, b: int, points: np.ndarray, p: int, dx: float, dy: float) -> float:
     """``contacts.relative_velocity`` on the pass's layout: ``((v_B + w_B x r_B) - (v_A + w_A x r_A)) . d`` at
     point ``p`` of bodies ``a`` and ``b``, the same arithmetic in the same order."""
-    ux = bodies[b, V_X] - bodies[b, V_W] * points[p, P_RBY]
-    uy = bodies[b, V_Y] + bodies[b, V_W] * points[p, P_RBX]
-    ux -= bodies[a, V_X] - bodies[a, V_W] * points[p, P_RAY]
-    uy -= bodies[a, V_Y] + bodies[a, V_W] * points[p, P_RAX]
+    ux = bodies[V_X, b] - bodies[V_W, b] * points[P_RBY, p]
+    uy = bodies[V_Y, b] + bodies[V_W, b] * points[P_RBX, p]
+    ux -= bodies[V_X, a] - bodies[V_W, a] * points[P_RAY, p]
+    uy -= bodies[V_Y, a] + bodies[V_W, a] * points[P_RAX, p]
     return ux * dx + uy * dy
 
 
@@ -218,24 +218,24 @@ def impulse_at(bodies: np.ndarray, a: int, b: int, points: np.ndarray, p: int, p
                ground: int) -> None:
     """``contacts.apply_impulse`` on the pass's layout: the impulse ``(px, py)`` at point ``p`` on body ``b``
     and its opposite on ``a`` (none on the ground)."""
-    bodies[b, V_X] += bodies[b, INV_M] * px
-    bodies[b, V_Y] += bodies[b, INV_M] * py
-    bodies[b, V_W] += bodies[b, INV_I] * (points[p, P_RBX] * py - points[p, P_RBY] * px)
+    bodies[V_X, b] += bodies[INV_M, b] * px
+    bodies[V_Y, b] += bodies[INV_M, b] * py
+    bodies[V_W, b] += bodies[INV_I, b] * (points[P_RBX, p] * py - points[P_RBY, p] * px)
     if a != ground:
-        bodies[a, V_X] -= bodies[a, INV_M] * px
-        bodies[a, V_Y] -= bodies[a, INV_M] * py
-        bodies[a, V_W] -= bodies[a, INV_I] * (points[p, P_RAX] * py - points[p, P_RAY] * px)
+        bodies[V_X, a] -= bodies[INV_M, a] * px
+        bodies[V_Y, a] -= bodies[INV_M, a] * py
+        bodies[V_W, a] -= bodies[INV_I, a] * (points[P_RAX, p] * py - points[P_RAY, p] * px)
 
 
 @leaf
 def soft_warm_start(bodies: np.ndarray, links: np.ndarray, points: np.ndarray, count: int) -> None:
     """``contacts.warm_start`` on the pass's layout: every point's accumulated impulses applied to its bodies,
     in the layout's order (which keeps each body's order of points, so the same sums)."""
-    ground = np.uint64(bodies.shape[0] - 1)
+    ground = np.uint64(bodies.shape[1] - 1)
     for p in range(np.uint64(count)):
-        pn, pt = points[p, P_PN], points[p, P_PT]
+        pn, pt = points[P_PN, p], points[P_PT, p]
         if pn != 0.0 or pt != 0.0:
-            nx, ny = points[p, P_NX], points[p, P_NY]
+            nx, ny = points[P_NX, p], points[P_NY, p]
             impulse_at(bodies, links[p, L_A], links[p, L_B], points, p, pn * nx - pt * ny, pn * ny + pt * nx, ground)
 
 
@@ -243,13 +243,13 @@ def soft_warm_start(bodies: np.ndarray, links: np.ndarray, points: np.ndarray, c
 def separation_at(bodies: np.ndarray, a: int, b: int, points: np.ndarray, p: int) -> float:
     """``substep.separation`` on the pass's layout: the separation of point ``p`` now (m, negative: overlap),
     from how far bodies ``a`` and ``b`` have moved and turned since the step began."""
-    r0x, r0y = points[p, P_RBX], points[p, P_RBY]
-    sx = bodies[b, D_X] + (bodies[b, COS] * r0x - bodies[b, SIN] * r0y)
-    sy = bodies[b, D_Y] + (bodies[b, SIN] * r0x + bodies[b, COS] * r0y)
-    r0x, r0y = points[p, P_RAX], points[p, P_RAY]
-    sx -= bodies[a, D_X] + (bodies[a, COS] * r0x - bodies[a, SIN] * r0y)
-    sy -= bodies[a, D_Y] + (bodies[a, SIN] * r0x + bodies[a, COS] * r0y)
-    return points[p, P_BASE] + sx * points[p, P_NX] + sy * points[p, P_NY]
+    r0x, r0y = points[P_RBX, p], points[P_RBY, p]
+    sx = bodies[D_X, b] + (bodies[COS, b] * r0x - bodies[SIN, b] * r0y)
+    sy = bodies[D_Y, b] + (bodies[SIN, b] * r0x + bodies[COS, b] * r0y)
+    r0x, r0y = points[P_RAX, p], points[P_RAY, p]
+    sx -= bodies[D_X, a] + (bodies[COS, a] * r0x - bodies[SIN, a] * r0y)
+    sy -= bodies[D_Y, a] + (bodies[SIN, a] * r0x + bodies[COS, a] * r0y)
+    return points[P_BASE, p] + sx * points[P_NX, p] + sy * points[P_NY, p]
 
 
 @leaf
@@ -267,7 +267,7 @@ def soft_pass(bodies: np.ndarray, links: np.ndarray, points: np.ndarray, waves: 
     full impulse and lets go ``impulse_scale`` of what it holds; without the bias it only stops approach.
     The normal total stays >= 0 and each point's friction total within ``mu`` times its normal total.
     """
-    ground = np.uint64(bodies.shape[0] - 1)
+    ground = np.uint64(bodies.shape[1] - 1)
     begin = np.uint64(0)
     for v in range(waves):
         end = ends[v]
@@ -278,23 +278,23 @@ def soft_pass(bodies: np.ndarray, links: np.ndarray, points: np.ndarray, waves: 
             if s > 0.0:
                 target = -s / h
             elif use_bias:
-                target = min(-points[p, P_BIAS] * s, push_out)
-                mass_scale, impulse_scale = points[p, P_SCALE], points[p, P_LET_GO]
-            nx, ny = points[p, P_NX], points[p, P_NY]
+                target = min(-points[P_BIAS, p] * s, push_out)
+                mass_scale, impulse_scale = points[P_SCALE, p], points[P_LET_GO, p]
+            nx, ny = points[P_NX, p], points[P_NY, p]
             un = velocity_at(bodies, a, b, points, p, nx, ny)
-            old = points[p, P_PN]
-            total = max(old + points[p, P_KN] * mass_scale * (target - un) - impulse_scale * old, 0.0)
+            old = points[P_PN, p]
+            total = max(old + points[P_KN, p] * mass_scale * (target - un) - impulse_scale * old, 0.0)
             impulse_at(bodies, a, b, points, p, (total - old) * nx, (total - old) * ny, ground)
-            points[p, P_PN] = total
+            points[P_PN, p] = total
         for p in range(begin, end):
             a, b = links[p, L_A], links[p, L_B]
-            nx, ny = points[p, P_NX], points[p, P_NY]
-            limit = points[p, P_MU] * points[p, P_PN]
-            old = points[p, P_PT]
-            total = old - points[p, P_KT] * velocity_at(bodies, a, b, points, p, -ny, nx)
+            nx, ny = points[P_NX, p], points[P_NY, p]
+            limit = points[P_MU, p] * points[P_PN, p]
+            old = points[P_PT, p]
+            total = old - points[P_KT, p] * velocity_at(bodies, a, b, points, p, -ny, nx)
             total = min(max(total, -limit), limit)
             impulse_at(bodies, a, b, points, p, -(total - old) * ny, (total - old) * nx, ground)
-            points[p, P_PT] = total
+            points[P_PT, p] = total
         begin = end
 
 
@@ -320,10 +320,10 @@ def soft_step_advance(x: np.ndarray, y: np.ndarray, angle: np.ndarray, vx: np.nd
         ids, table = contact_workspace(keys.shape[1])
         first, order, wave, tally, ends, latest, links, points = pass_workspace(ids.shape[0], n)
         start = np.empty((n, 3))
-        bodies = np.empty((n + 1, BODY_COLUMNS))
+        bodies = np.empty((BODY_COLUMNS, n + 1))
         ids, table, count = find_contacts(xb, yb, ab, hxb, hyb, im, speculative[b], ids, table)
         for _ in range(steps):
-            if points.shape[0] < ids.shape[0]:
+            if points.shape[1] < ids.shape[0]:
                 first, order, wave, tally, ends, latest, links, points = pass_workspace(ids.shape[0], n)
             table[:count, PN] = 0.0
             table[:count, PT] = 0.0
