@@ -1,0 +1,176 @@
+"""The soft step's visiting order (waves of manifolds that share no body) against what it must keep: each
+body's order of visits, and so every number of a pass over the manifolds in table order. The table-order
+soft step is transcribed here from the contact stages it is made of (``contacts``, ``substep``), in plain
+Python, and the solver must match it to the bit."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from stackx.kernel import compiled
+from stackx.solvers.column.soft_step import STATIC_HERTZ, soft
+from stackx.solvers.planar.contacts import (A, B, KN, KT, MU, NX, NY, PN, PT, contact_workspace, find_contacts,
+                                            gravity, integrate_positions, manifold_impulse, manifold_velocity,
+                                            prepare, recall, remember, warm_start)
+from stackx.solvers.planar.soft_step import SUBSTEP_HERTZ, PlanarSoftStep, PlanarSoftStepParams
+from stackx.solvers.planar.substep import base_separations, manifold_end, moved, separation, step_start
+from stackx.solvers.planar.wavefront import manifold_starts, wavefronts
+from stackx.models.planar.state import PlanarState
+from tests.planar.hand_states import boxes, pyramid
+
+DT = 1 / 60
+G = -9.8
+
+
+def _random_contacts(rng: np.random.Generator, bodies: int, manifolds: int) -> np.ndarray:
+    """``ids`` of ``manifolds`` distinct manifolds (1 or 2 points each) sorted by ``(A, B)`` as ``collide``
+    lists them, the ground (-1) among the ``A``s."""
+    pairs = set()
+    while len(pairs) < manifolds:
+        a = int(rng.integers(-1, bodies - 1))
+        b = int(rng.integers(max(a + 1, 0), bodies))
+        pairs.add((a, b))
+    rows = [(a, b, f) for a, b in sorted(pairs) for f in range(int(rng.integers(1, 3)))]
+    return np.array(rows, np.int64)
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_waves_share_no_body_and_keep_every_bodys_order(seed: int) -> None:
+    rng = np.random.default_rng(seed)
+    ids = _random_contacts(rng, 12, 30)
+    count = ids.shape[0]
+    first, order = np.empty(count + 1, np.int64), np.empty(count, np.int64)
+    latest, wave, tally = np.empty(12, np.int64), np.empty(count, np.int64), np.empty(count + 1, np.int64)
+    with compiled(False):
+        m = manifold_starts(ids, count, first)
+        waves = wavefronts(ids, first, m, latest, wave, tally, order)
+    starts = [k for k in range(count) if k == 0 or tuple(ids[k, :2]) != tuple(ids[k - 1, :2])]
+    assert list(first[:m]) == starts and first[m] == count
+    assert sorted(order[:m]) == list(range(m))
+    begin = 0
+    for v in range(waves):
+        wave_bodies = [int(x) for j in order[begin:tally[v]] for x in ids[first[j], :2] if x >= 0]
+        assert len(wave_bodies) == len(set(wave_bodies)), "two manifolds of one wave share a body"
+        assert list(order[begin:tally[v]]) == sorted(order[begin:tally[v]]), "table order within a wave"
+        begin = tally[v]
+    assert begin == m
+    for body in range(12):  # a body's manifolds come in table order
+        seen = [j for j in order[:m] if body in ids[first[j], :2]]
+        assert seen == sorted(seen)
+    # each manifold's wave is as early as its bodies allow: one after the latest earlier manifold it shares
+    # a body with (so on a chain of manifolds the waves count the links)
+    place = {int(j): v for v in range(waves) for j in order[(tally[v - 1] if v else 0):tally[v]]}
+    for j in range(m):
+        mine = {x for x in ids[first[j], :2] if x >= 0}
+        before = [place[i] for i in range(j) if mine & {x for x in ids[first[i], :2] if x >= 0}]
+        assert place[j] == (max(before) + 1 if before else 0)
+
+
+def _table_order_pass(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, inv_mass: np.ndarray,
+                      inv_inertia: np.ndarray, ids: np.ndarray, table: np.ndarray, count: int, base: np.ndarray,
+                      since: np.ndarray, h: float, use_bias: bool, push_out: float, softness: np.ndarray) -> None:
+    """The soft pass over the manifolds in table order, each one's points normal first, then friction."""
+    start = 0
+    while start < count:
+        end = manifold_end(ids, start, count)
+        a, b = ids[start, A], ids[start, B]
+        grounded = a < 0
+        vax, vay, wa, ima, iia = 0.0, 0.0, 0.0, 0.0, 0.0
+        if not grounded:
+            vax, vay, wa, ima, iia = vx[a], vy[a], w[a], inv_mass[a], inv_inertia[a]
+        vbx, vby, wb, imb, iib = vx[b], vy[b], w[b], inv_mass[b], inv_inertia[b]
+        row = 1 if grounded or ima == 0.0 or imb == 0.0 else 0
+        for k in range(start, end):
+            s = separation(ids, table, base, since, k)
+            target, mass_scale, impulse_scale = 0.0, 1.0, 0.0
+            if s > 0.0:
+                target = -s / h
+            elif use_bias:
+                target = min(-softness[row, 0] * s, push_out)
+                mass_scale, impulse_scale = softness[row, 1], softness[row, 2]
+            nx, ny = table[k, NX], table[k, NY]
+            un = manifold_velocity(vax, vay, wa, vbx, vby, wb, grounded, table, k, nx, ny)
+            old = table[k, PN]
+            total = max(old + table[k, KN] * mass_scale * (target - un) - impulse_scale * old, 0.0)
+            vax, vay, wa, vbx, vby, wb = manifold_impulse(vax, vay, wa, vbx, vby, wb, grounded, ima, iia, imb, iib,
+                                                          table, k, (total - old) * nx, (total - old) * ny)
+            table[k, PN] = total
+        for k in range(start, end):
+            nx, ny = table[k, NX], table[k, NY]
+            limit = table[k, MU] * table[k, PN]
+            old = table[k, PT]
+            total = old - table[k, KT] * manifold_velocity(vax, vay, wa, vbx, vby, wb, grounded, table, k, -ny, nx)
+            total = min(max(total, -limit), limit)
+            vax, vay, wa, vbx, vby, wb = manifold_impulse(vax, vay, wa, vbx, vby, wb, grounded, ima, iia, imb, iib,
+                                                          table, k, -(total - old) * ny, (total - old) * nx)
+            table[k, PT] = total
+        if not grounded:
+            vx[a], vy[a], w[a] = vax, vay, wa
+        vx[b], vy[b], w[b] = vbx, vby, wb
+        start = end
+
+
+def _table_order_steps(state: PlanarState, params: PlanarSoftStepParams, steps: int) -> None:
+    """Box2D v3's soft step as the module doc states it, every pass in table order (row 0 of ``state``)."""
+    x, y, angle, vx, vy, w = state.x[0], state.y[0], state.angle[0], state.vx[0], state.vy[0], state.w[0]
+    im, ii, mu = state.inv_mass[0], state.inv_inertia[0], state.friction[0]
+    n = x.shape[0]
+    h = DT / params.substeps
+    hertz = min(params.contact_hertz if params.contact_hertz is not None else math.inf, SUBSTEP_HERTZ / h)
+    softness = np.array([soft(hertz, params.damping_ratio, h), soft(STATIC_HERTZ * hertz, params.damping_ratio, h)])
+    room = 8 * n + 8
+    keys, carried, held = np.zeros((room, 3), np.int64), np.zeros((room, 2)), 0
+    ids, table = contact_workspace(room)
+    start, since, base = np.empty((n, 3)), np.empty((n, 4)), np.empty(room)
+    for _ in range(steps):
+        ids, table, count = find_contacts(x, y, angle, state.hx[0], state.hy[0], im, params.speculative, ids, table)
+        prepare(x, y, im, ii, mu, ids, table, count)
+        base_separations(ids, table, count, base)
+        if params.warm_start:
+            recall(ids, table, count, keys, carried, held)
+        step_start(x, y, angle, start, since)
+        for _ in range(params.substeps):
+            gravity(vy, im, G, h)
+            warm_start(vx, vy, w, im, ii, ids, table, count)
+            _table_order_pass(vx, vy, w, im, ii, ids, table, count, base, since, h, True, params.push_out, softness)
+            integrate_positions(x, y, angle, vx, vy, w, h)
+            moved(x, y, angle, start, since)
+            if params.relax:
+                _table_order_pass(vx, vy, w, im, ii, ids, table, count, base, since, h, False, params.push_out,
+                                  softness)
+        held = remember(ids, table, count, keys, carried)
+
+
+def _tumbling_pile() -> PlanarState:
+    """Boxes landing and sliding on each other and on a static slab: one- and two-point manifolds, points
+    coming and going, the ground and a static box as sides."""
+    state = pyramid(4, mu=0.5, jitter=0.2, seed=3)
+    state.vx[0] = np.linspace(-1.0, 1.0, state.bodies)
+    state.w[0, -1] = 3.0
+    state.y[0] += 0.02 * np.arange(state.bodies)
+    slab = boxes([6.0], [0.25], [0.1], [(2.0, 0.25)], [0.0], [0.5])
+    box = boxes([6.2], [1.1], [0.3], [(0.4, 0.3)], [1.0], [0.5])
+    return PlanarState(*(np.concatenate([getattr(s, f) for s in (state, slab, box)], axis=1)
+                         for f in PlanarState.BODY))
+
+
+@pytest.mark.parametrize("params", [{"substeps": 4}, {"substeps": 2, "relax": False, "warm_start": False},
+                                    {"substeps": 3, "contact_hertz": None}])
+def test_the_soft_step_gives_the_numbers_of_visiting_manifolds_in_table_order(params: dict[str, object]) -> None:
+    """Waves reorder manifolds that share no body, which commute exactly: every position, velocity and angle
+    after 12 steps is the table-order transcription's, to the bit (compiled as the runner steps)."""
+    p = PlanarSoftStepParams(**params)
+    expected = _tumbling_pile()
+    with compiled(False):
+        _table_order_steps(expected, p, 12)
+    state = _tumbling_pile()
+    solver = PlanarSoftStep([p], np.array([G]), np.array([DT]))
+    with compiled(True):
+        solver.advance(state, 5)
+        solver.advance(state, 7)
+    for name in ("x", "y", "angle", "vx", "vy", "w"):
+        assert np.array_equal(getattr(state, name), getattr(expected, name)), name
+    assert np.abs(expected.vx).max() > 0.1  # the pile is moving: the test compares something that happens
