@@ -116,12 +116,23 @@ def observed_contacts(x: np.ndarray, y: np.ndarray, angle: np.ndarray, hx: np.nd
     monitors take the model's own collision test (``monitor.observe``) instead; once every box has touched,
     the one list serves both."""
     ids, table, count = find_contacts(x, y, angle, hx, hy, inv_mass, margin, ids, table)
+    observe_contacts(x, y, angle, hx, hy, inv_mass, margin, ids, table, count, dt, last, peak, reach, touched,
+                     launch, b)
+    return ids, table, count
+
+
+@kernel
+def observe_contacts(x: np.ndarray, y: np.ndarray, angle: np.ndarray, hx: np.ndarray, hy: np.ndarray,
+                     inv_mass: np.ndarray, margin: float, ids: np.ndarray, table: np.ndarray, count: int, dt: float,
+                     last: np.ndarray, peak: np.ndarray, reach: np.ndarray, touched: np.ndarray,
+                     launch: np.ndarray, b: int) -> None:
+    """The monitors of row ``b`` for a step that ended where the table's ``count`` points (found within
+    ``margin``) were found: ``observed_contacts`` for a caller that already holds that table."""
     if margin < TOUCH_GAP and untouched(touched, inv_mass, b):
         observe(x, y, angle, hx, hy, inv_mass, dt, last, peak, reach, touched, launch, b)
     else:
         observe_points(ids[:, A], ids[:, B], table[:, DEPTH], count, y, hx, hy, inv_mass, dt, last, peak, reach,
                        touched, launch, b)
-    return ids, table, count
 
 
 @leaf
@@ -552,15 +563,23 @@ def integrate_positions(x: np.ndarray, y: np.ndarray, angle: np.ndarray, vx: np.
 
 @leaf
 def correct_positions(x: np.ndarray, y: np.ndarray, inv_mass: np.ndarray, ids: np.ndarray, table: np.ndarray,
-                      count: int, slop: float, percent: float, shift: np.ndarray) -> None:
-    """The lab's correction on the points of the table (found after the positions moved), in table order.
+                      count: int, slop: float, percent: float, shift: np.ndarray) -> bool:
+    """The lab's correction on the touching points of the table (found after the positions moved), in table
+    order; returns whether it moved any body.
+
+    Points still apart (depth < 0, in a table found within a speculative margin) are passed over: the
+    touching points of such a table are, in the same order, the table found with no margin, so a solver
+    whose next step wants the speculative table finds it once and, when nothing was moved, keeps it.
 
     Each point's depth is the table's less what the pushes before it have already opened along its normal
     (``shift``, ``(bodies, 2)`` scratch: how far each body was pushed in this stage), which is exact for pushes
     that only translate. ``correct`` gives the two moves (split by inverse mass; none within slop).
     """
     shift[:, :] = 0.0
+    moved = False
     for k in range(count):
+        if table[k, DEPTH] < 0.0:
+            continue
         a, b = ids[k, A], ids[k, B]
         nx, ny = table[k, NX], table[k, NY]
         opened = shift[b, 0] * nx + shift[b, 1] * ny
@@ -579,6 +598,8 @@ def correct_positions(x: np.ndarray, y: np.ndarray, inv_mass: np.ndarray, ids: n
             y[b] += up * ny
             shift[b, 0] += up * nx
             shift[b, 1] += up * ny
+        moved = moved or down != 0.0 or up != 0.0
+    return moved
 
 
 @leaf
