@@ -13,6 +13,8 @@ Functions, in the order a step uses them:
 - ``gravity(vy, inv_mass, g, dt)``: ``vy += g * dt`` for every movable body;
 - ``find_contacts(...)``: fill the table from ``collide`` (points within ``margin`` of touching), growing it
   when the world has more points than room; returns the (maybe new) table and the count;
+- ``find_contacts_near(...)``: the same, keeping the broad phase's candidates from one call to the next
+  while the boxes stay within ``LOOSENESS`` of where they were found (``near_workspace`` makes the room);
 - ``observed_contacts(...)``: ``find_contacts`` where a step ended, the list serving both the step's monitors
   and the next step (which starts at the same positions): one collision test a step, not one per use;
 - ``prepare(...)``: per point the anchors ``r_A``, ``r_B`` (the point minus each centre), the effective normal
@@ -54,7 +56,7 @@ import numpy as np
 
 from stackx.solvers.correct import correct
 from stackx.kernel import kernel, leaf
-from stackx.models.planar.collide import collide
+from stackx.models.planar.collide import collide, collide_near
 from stackx.models.planar.monitor import observe, observe_points
 from stackx.models.touch import TOUCH_GAP
 
@@ -70,6 +72,7 @@ LNX, LNY, LFX, LFY, LQX, LQY = range(15, 21)
 K11, K12, K22, CONDITIONED = range(21, 25)
 COLUMNS = 25
 FLIPPED = 64  # collide's features from 64 up: the reference face is on body B
+LOOSENESS = 0.05  # m a side the kept candidates' bounds are grown by (Box2D v3's B2_MAX_AABB_MARGIN)
 BLOCK_CONDITION = 1000.0  # largest condition (k11^2 / det) a two-point block is solved at (Box2D 2.x's)
 
 
@@ -99,6 +102,33 @@ def find_contacts(x: np.ndarray, y: np.ndarray, angle: np.ndarray, hx: np.ndarra
                         table[:, PX:PY + 1], table[:, DEPTH], ids[:, FEATURE])
         if count <= ids.shape[0]:
             return ids, table, count
+        ids, table = contact_workspace(count)
+
+
+@kernel
+def near_workspace(bodies: int) -> tuple[np.ndarray, np.ndarray]:
+    """Room for the broad phase's candidates kept between a step's collision tests (``find_contacts_near``):
+    ``(near, wide)``, none kept yet."""
+    near = np.empty(4 * bodies + 17, np.int64)
+    near[0] = -1
+    return near, np.empty((bodies, 4))
+
+
+@kernel
+def find_contacts_near(x: np.ndarray, y: np.ndarray, angle: np.ndarray, hx: np.ndarray, hy: np.ndarray,
+                       inv_mass: np.ndarray, margin: float, near: np.ndarray, wide: np.ndarray, ids: np.ndarray,
+                       table: np.ndarray) -> tuple[np.ndarray, np.ndarray, int, np.ndarray]:
+    """``find_contacts``, the same points in the same order, with the broad phase's candidates kept in
+    ``near`` and ``wide`` (``near_workspace``) from one call to the next while no box moved out of its
+    bounds grown by ``LOOSENESS`` a side (``collide.collide_near``): a pile at rest, tested two or three
+    times a step, finds its candidate pairs once. Returns ``(ids, table, count, near)``."""
+    static = inv_mass == 0.0
+    while True:
+        count, near = collide_near(x, y, angle, hx, hy, static, margin, margin + 2.0 * LOOSENESS, near, wide,
+                                   ids[:, A], ids[:, B], table[:, NX:NY + 1], table[:, PX:PY + 1],
+                                   table[:, DEPTH], ids[:, FEATURE])
+        if count <= ids.shape[0]:
+            return ids, table, count, near
         ids, table = contact_workspace(count)
 
 

@@ -29,8 +29,8 @@ from stackx.registry import solvers
 from stackx.solvers.base import Correction, LabCorrection
 from stackx.solvers.planar.base import PlanarSolver, sequential_only
 from stackx.solvers.planar.contacts import (DEPTH, KN, KT, MU, NX, NY, PN, PT, apply_impulse, contact_workspace,
-                                            correct_positions, find_contacts, gravity, integrate_positions,
-                                            observed_contacts, prepare, relative_velocity)
+                                            correct_positions, find_contacts_near, gravity, integrate_positions,
+                                            near_workspace, observe_contacts, prepare, relative_velocity)
 
 
 class PlanarPGSParams(BaseModel):
@@ -82,19 +82,23 @@ def planar_pgs_advance(x: np.ndarray, y: np.ndarray, angle: np.ndarray, vx: np.n
         xb, yb, ab, vxb, vyb, wb = x[b], y[b], angle[b], vx[b], vy[b], w[b]  # the row's views, made once
         im, ii, hxb, hyb, mub = inv_mass[b], inv_inertia[b], hx[b], hy[b], friction[b]
         ids, table = contact_workspace(contact_room(x.shape[1]))
+        near, wide = near_workspace(x.shape[1])  # the candidate pairs, kept while the boxes stay near
         shift = np.zeros((x.shape[1], 2))
-        ids, table, count = find_contacts(xb, yb, ab, hxb, hyb, im, 0.0, ids, table)
+        ids, table, count, near = find_contacts_near(xb, yb, ab, hxb, hyb, im, 0.0, near, wide, ids, table)
         for _ in range(steps):
             gravity(vyb, im, g[b], dt[b])
             prepare(xb, yb, im, ii, mub, ids, table, count)
             for _ in range(iterations[b]):
                 lab_pass(vxb, vyb, wb, im, ii, ids, table, count)
             integrate_positions(xb, yb, ab, vxb, vyb, wb, dt[b])
+            moved = True
             if corrects[b]:
-                ids, table, count = find_contacts(xb, yb, ab, hxb, hyb, im, 0.0, ids, table)
-                correct_positions(xb, yb, im, ids, table, count, slop[b], percent[b], shift)
-            ids, table, count = observed_contacts(xb, yb, ab, hxb, hyb, im, 0.0, ids, table, dt[b], last, peak,
-                                                  reach, touched, launch, b)
+                ids, table, count, near = find_contacts_near(xb, yb, ab, hxb, hyb, im, 0.0, near, wide, ids, table)
+                moved = correct_positions(xb, yb, im, ids, table, count, slop[b], percent[b], shift)
+            if moved:  # the contacts where the step ends, the next step's; unchanged if nothing was pushed
+                ids, table, count, near = find_contacts_near(xb, yb, ab, hxb, hyb, im, 0.0, near, wide, ids, table)
+            observe_contacts(xb, yb, ab, hxb, hyb, im, 0.0, ids, table, count, dt[b], last, peak, reach, touched,
+                             launch, b)
 
 
 @solvers.register("planar-pgs")

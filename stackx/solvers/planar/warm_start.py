@@ -43,8 +43,9 @@ from stackx.registry import solvers
 from stackx.solvers.base import Correction, LabCorrection
 from stackx.solvers.contacts import speculative_field
 from stackx.solvers.planar.base import PlanarMemorySolver, sequential_only
-from stackx.solvers.planar.contacts import (contact_workspace, correct_positions, find_contacts,
-                                            integrate_positions, observe_contacts, solve_velocities)
+from stackx.solvers.planar.contacts import (contact_workspace, correct_positions, find_contacts_near,
+                                            integrate_positions, near_workspace, observe_contacts,
+                                            solve_velocities)
 
 
 class PlanarWarmStartParams(BaseModel):
@@ -91,18 +92,22 @@ def planar_warm_start_advance(x: np.ndarray, y: np.ndarray, angle: np.ndarray, v
         xb, yb, ab, vxb, vyb, wb = x[b], y[b], angle[b], vx[b], vy[b], w[b]  # the row's views, made once
         im, ii, hxb, hyb, mub = inv_mass[b], inv_inertia[b], hx[b], hy[b], friction[b]
         ids, table = contact_workspace(keys.shape[1])
+        near, wide = near_workspace(x.shape[1])  # the candidate pairs, kept while the boxes stay near
         shift = np.zeros((x.shape[1], 2))
-        ids, table, count = find_contacts(xb, yb, ab, hxb, hyb, im, speculative[b], ids, table)
+        ids, table, count, near = find_contacts_near(xb, yb, ab, hxb, hyb, im, speculative[b], near, wide, ids,
+                                                     table)
         for _ in range(steps):
             held[b] = solve_velocities(xb, yb, vxb, vyb, wb, im, ii, mub, g[b], dt[b], carry[b], iterations[b],
                                        block[b], relaxation[b], ids, table, count, keys[b], carried[b], held[b])
             integrate_positions(xb, yb, ab, vxb, vyb, wb, dt[b])
             moved = True
             if corrects[b]:  # the speculative table's touching points are the correction's (correct_positions)
-                ids, table, count = find_contacts(xb, yb, ab, hxb, hyb, im, speculative[b], ids, table)
+                ids, table, count, near = find_contacts_near(xb, yb, ab, hxb, hyb, im, speculative[b], near, wide,
+                                                             ids, table)
                 moved = correct_positions(xb, yb, im, ids, table, count, slop[b], percent[b], shift)
             if moved:  # a correction that moved nothing leaves the table the next step wants
-                ids, table, count = find_contacts(xb, yb, ab, hxb, hyb, im, speculative[b], ids, table)
+                ids, table, count, near = find_contacts_near(xb, yb, ab, hxb, hyb, im, speculative[b], near, wide,
+                                                             ids, table)
             observe_contacts(xb, yb, ab, hxb, hyb, im, speculative[b], ids, table, count, dt[b], last, peak, reach,
                              touched, launch, b)
 
