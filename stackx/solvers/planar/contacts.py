@@ -57,7 +57,7 @@ from __future__ import annotations
 import numpy as np
 
 from stackx.solvers.correct import correct
-from stackx.kernel import kernel, leaf
+from stackx.kernel import inlined, kernel, leaf
 from stackx.models.planar.collide import collide, collide_near
 from stackx.models.planar.monitor import observe, observe_points
 from stackx.models.touch import TOUCH_GAP
@@ -465,7 +465,7 @@ def two_point_lcp(k11: float, k12: float, k22: float, b1: float, b2: float, pair
     return 0.0, 0.0, False
 
 
-@leaf
+@inlined
 def block_step(vax: float, vay: float, wa: float, vbx: float, vby: float, wb: float, grounded: bool,
                ima: float, iia: float, imb: float, iib: float, table: np.ndarray, k: int,
                relaxation: float) -> tuple[bool, float, float, float, float, float, float]:
