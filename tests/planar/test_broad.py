@@ -128,3 +128,24 @@ def test_kept_candidates_give_the_points_of_testing_every_pair_while_boxes_drift
         for g, w in zip(got, want):
             np.testing.assert_array_equal(g[:n], w[:n])
     assert 2 <= refound < 12  # found at the first call and again after the jump, kept at least once
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_the_touching_points_of_a_speculative_test_are_those_of_a_test_with_no_margin(seed: int) -> None:
+    """What lets a solver correct positions on its speculative contacts (``contacts.correct_positions`` passes
+    over points still apart): the points with depth >= 0 of a test within a margin are, in the same order,
+    all the points of the test with none."""
+    x, y, angle, hx, hy, static = scene(seed, 120)
+    room = 4000
+    found = {}
+    for margin in (0.0, 0.02, 0.3):
+        out = (np.zeros(room, np.int64), np.zeros(room, np.int64), np.zeros((room, 2)), np.zeros((room, 2)),
+               np.zeros(room), np.zeros(room, np.int64))
+        with kernel.compiled(True):
+            n = collide(x, y, angle, hx, hy, static, margin, *out)
+        touching = out[4][:n] >= 0.0
+        found[margin] = [column[:n][touching] for column in out]
+        assert margin == 0.0 or not touching.all()  # the margin did add points still apart
+    for margin in (0.02, 0.3):
+        for got, want in zip(found[margin], found[0.0]):
+            np.testing.assert_array_equal(got, want)

@@ -100,10 +100,28 @@ def test_the_lab_correction_pushes_each_point_after_the_pushes_before_it() -> No
     slop, percent = 0.01, 0.2
     first = percent * (0.05 - slop)
     second = percent * (0.05 - first - slop)  # the second point sees what the first already undid
-    correct_positions(s.x[0], s.y[0], s.inv_mass[0], ids, table, count, slop, percent, np.zeros((1, 2)))
+    assert correct_positions(s.x[0], s.y[0], s.inv_mass[0], ids, table, count, slop, percent, np.zeros((1, 2)))
     assert count == 2
     assert s.y[0, 0] == pytest.approx(0.45 + first + second, abs=1e-15)
     assert s.x[0, 0] == 0.0 and s.angle[0, 0] == 0.0
+
+
+def test_the_lab_correction_says_whether_it_moved_and_passes_over_points_still_apart() -> None:
+    """Sunk within slop: nothing moves and it says so. A point still apart (from a speculative margin) is
+    passed over even where the pushes before it closed its gap past the slop: it is not in the table with no
+    margin that the stage is defined on."""
+    s = world([{"x": 0.0, "y": 0.495}])
+    ids, table, count = _table(s)
+    assert count == 2 and not correct_positions(s.x[0], s.y[0], s.inv_mass[0], ids, table, count, 0.01, 0.2,
+                                                np.zeros((1, 2)))
+    assert s.y[0, 0] == 0.495
+    s = world([{"x": 0.0, "y": 0.45}])
+    ids, table, count = _table(s)
+    table[0, DEPTH] = 0.2  # a first push that moves the box up by 3.8 cm
+    table[1, DEPTH] = -0.001  # the second point apart, along a normal that push closes it by
+    table[1, NX], table[1, NY] = 0.0, -1.0
+    assert correct_positions(s.x[0], s.y[0], s.inv_mass[0], ids, table, count, 0.01, 0.2, np.zeros((1, 2)))
+    assert s.y[0, 0] == 0.45 + 0.2 * (0.2 - 0.01)  # the first push only
 
 
 def test_memory_finds_each_point_by_its_bodies_and_feature() -> None:
