@@ -24,6 +24,8 @@ per step, the ratios of the targets, the batched figure (``--batch`` rows of pyr
 call, on every thread numba has, against Box2D stepping as many worlds one call each) and, per subject, the
 exponent of a least-squares fit of cost against contact points over the pyramids of 10, 20, 40 and 60 rows
 (1 is linear).
+``--piles`` and ``--subjects`` restrict a run to some piles and subjects (the fit needs its four pyramids), and
+``--batch 0`` leaves the batched figure out.
 The drift of each pile (largest sideways motion and turn of a box over the timed steps) goes to the JSON
 file, so a fast subject that lets a pile fall can be told.
 """
@@ -83,6 +85,11 @@ def courses(layers: int, counts: tuple[int, ...], width: float, height: float, j
             boxes.append(Body(x=left + i * (width + joint), y=height * (k + 0.5), width=width, height=height,
                               friction=FRICTION))
     return Planar(PlanarParams(boxes=boxes)).build()
+
+
+def scenes_names() -> list[str]:
+    """The piles' names, as ``scenes`` keys them."""
+    return [*(f"pyramid-{r}" for r in PYRAMIDS), "brick wall 65", "pile 1000"]
 
 
 def scenes(exact_boxes: int) -> dict[str, Any]:
@@ -265,7 +272,9 @@ class Timed:
     motion: dict[str, tuple[float, float]]
 
 
-def time_scene(initial: Any, steps: int, repeats: int, exact: bool, console: Any) -> Timed:
+def time_scene(initial: Any, steps: int, repeats: int, exact: bool, console: Any,
+               chosen: set[str] | None = None) -> Timed:
+    """µs per step of every subject on one pile (only those named in ``chosen`` when given)."""
     subjects: dict[str, Subject] = {}
     for name, (solver, knobs) in STACKX.items():
         if solver != "planar-exact" or exact:
@@ -273,6 +282,8 @@ def time_scene(initial: Any, steps: int, repeats: int, exact: bool, console: Any
     subjects[BOX2D] = Box2D(initial)
     for it in (10, 30):
         subjects[PYMUNK.format(it)] = Pymunk(initial, it)
+    if chosen is not None:
+        subjects = {n: s for n, s in subjects.items() if n in chosen}
     for name, sub in list(subjects.items()):  # compile (or load the cache) and import before anything is timed
         try:
             sub.prepare(1)()
@@ -298,19 +309,30 @@ def time_batch(initial: Any, rows: int, steps: int, repeats: int) -> dict[str, f
     return {n: s.per_unit * 1e6 for n, s in samples.items()}
 
 
-def run(json_path: Path, steps: int, repeats: int, batch: int, exact_boxes: int) -> dict[str, Any]:
+def subject_names() -> list[str]:
+    """Every subject of the per-pile table, by the name the table and ``--subjects`` use."""
+    return [*STACKX, BOX2D, *(PYMUNK.format(it) for it in (10, 30))]
+
+
+def run(json_path: Path, steps: int, repeats: int, batch: int, exact_boxes: int, only_piles: list[str] | None = None,
+        only_subjects: list[str] | None = None) -> dict[str, Any]:
+    """Time the piles (``only_piles`` of them when given) with the subjects (``only_subjects``), print the
+    tables and write the figures; ``batch`` 0 leaves the batched figure out."""
     import numba
     from rich.console import Console
     from rich.table import Table
 
     console = Console(width=200)
     piles = scenes(exact_boxes)
+    if only_piles is not None:
+        piles = {name: pile for name, pile in piles.items() if name in only_piles}
+    chosen = set(only_subjects) if only_subjects is not None else None
     timed: dict[str, Timed] = {}
     points: dict[str, int] = {}
     for name, initial in piles.items():
         points[name] = contact_points(initial)
         console.print(f"timing {name}: {initial.bodies} boxes, {points[name]} contact points")
-        timed[name] = time_scene(initial, steps, repeats, initial.bodies <= exact_boxes, console)
+        timed[name] = time_scene(initial, steps, repeats, initial.bodies <= exact_boxes, console, chosen)
     names = list(dict.fromkeys(n for t in timed.values() for n in t.us))
     table = Table(title=f"CPU µs per step (median of {repeats} samples of {steps} steps; stackx compiled, one thread)")
     table.add_column("pile")
@@ -327,20 +349,22 @@ def run(json_path: Path, steps: int, repeats: int, batch: int, exact_boxes: int)
         ratios.add_row(pile, *(f"{t.us[a] / t.us[b]:.2f}" if a in t.us and b in t.us else "-" for a, b in RATIOS))
     console.print(ratios)
     scaling = {}
-    sizes = [points[f"pyramid-{r}"] for r in SCALING]
-    for n in names:
-        costs = [timed[f"pyramid-{r}"].us.get(n) for r in SCALING]
-        if all(c is not None for c in costs):
-            scaling[n] = fitted_exponent(sizes, costs)  # type: ignore[arg-type]
-    console.print("exponent of µs/step against contact points over pyramids " + "/".join(map(str, SCALING))
-                  + f" ({'/'.join(map(str, sizes))} points): "
-                  + ", ".join(f"{n} {e:.2f}" for n, e in scaling.items()))
-    batched = time_batch(piles["pyramid-20"], batch, max(1, steps // 4), repeats)
-    box2d = batched[BOX2D]
-    console.print(f"pyramid-20 x {batch} worlds, µs per world-step (stackx: one call per step for the batch, "
-                  f"{numba.config.NUMBA_NUM_THREADS} threads; Box2D: one call per world and step): "
-                  + ", ".join(f"{n} {us:.1f} ({box2d / us:.1f}x fewer than Box2D)" for n, us in batched.items()
-                              if n != BOX2D) + f", {BOX2D} {box2d:.1f}")
+    if all(f"pyramid-{r}" in timed for r in SCALING):
+        sizes = [points[f"pyramid-{r}"] for r in SCALING]
+        for n in names:
+            costs = [timed[f"pyramid-{r}"].us.get(n) for r in SCALING]
+            if all(c is not None for c in costs):
+                scaling[n] = fitted_exponent(sizes, costs)  # type: ignore[arg-type]
+        console.print("exponent of µs/step against contact points over pyramids " + "/".join(map(str, SCALING))
+                      + f" ({'/'.join(map(str, sizes))} points): "
+                      + ", ".join(f"{n} {e:.2f}" for n, e in scaling.items()))
+    batched = time_batch(pyramid(20), batch, max(1, steps // 4), repeats) if batch else {}
+    box2d = batched.get(BOX2D, math.nan)
+    if batched:
+        console.print(f"pyramid-20 x {batch} worlds, µs per world-step (stackx: one call per step for the batch, "
+                      f"{numba.config.NUMBA_NUM_THREADS} threads; Box2D: one call per world and step): "
+                      + ", ".join(f"{n} {us:.1f} ({box2d / us:.1f}x fewer than Box2D)" for n, us in batched.items()
+                                  if n != BOX2D) + f", {BOX2D} {box2d:.1f}")
     doc = {"steps": steps, "repeats": repeats, "boxes": {p: s.bodies for p, s in piles.items()},
            "contact_points": points, "us_per_step": {p: t.us for p, t in timed.items()},
            "drift_m_turn_rad": {p: t.motion for p, t in timed.items()}, "scaling_exponent": scaling,
@@ -358,13 +382,18 @@ def main() -> None:
     parser.add_argument("--json", type=Path, default=Path("out/planar-speed.json"), help="where the figures go")
     parser.add_argument("--steps", type=int, default=20, help="steps per timed sample (default 20)")
     parser.add_argument("--repeats", type=int, default=5, help="samples per implementation (default 5)")
-    parser.add_argument("--batch", type=int, default=64, help="rows of the batched pyramid-20 (default 64)")
+    parser.add_argument("--batch", type=int, default=64,
+                        help="rows of the batched pyramid-20 (default 64; 0 leaves the batched figure out)")
+    parser.add_argument("--piles", nargs="+", metavar="PILE", choices=list(scenes_names()),
+                        help="time only these piles (default: all): " + ", ".join(scenes_names()))
+    parser.add_argument("--subjects", nargs="+", metavar="SUBJECT", choices=subject_names(),
+                        help="time only these subjects (default: all): " + ", ".join(subject_names()))
     parser.add_argument("--exact-boxes", type=int, default=500,
                         help="planar-exact is timed on piles of at most this many boxes (default 500)")
     args = parser.parse_args()
-    if args.steps < 1 or args.repeats < 1 or args.batch < 1:
-        parser.error("--steps, --repeats and --batch must be at least 1")
-    run(args.json, args.steps, args.repeats, args.batch, args.exact_boxes)
+    if args.steps < 1 or args.repeats < 1 or args.batch < 0:
+        parser.error("--steps and --repeats must be at least 1, --batch at least 0")
+    run(args.json, args.steps, args.repeats, args.batch, args.exact_boxes, args.piles, args.subjects)
 
 
 if __name__ == "__main__":

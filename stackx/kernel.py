@@ -20,7 +20,8 @@ under ``auto`` a batch of fewer than ``STACKX_JIT_WORK`` box-steps (rows x boxes
 runs plain and does not import numba at all: the whole lab then runs faster than numba can start.
 
 A small function that a pass calls for every contact point and that makes no array is marked ``@leaf``
-instead: compiled without reference counting, a call passing it arrays costs what its arithmetic does.
+instead: compiled without reference counting, a call passing it arrays costs what its arithmetic does. A
+leaf too large for LLVM to inline is marked ``@inlined``: numba copies it into each caller (``inline``).
 
 Compilation is lazy: ``@kernel`` wraps the function, and nothing is compiled until a compiled call is made.
 The compiled version of a kernel is built from the same code with every kernel it names replaced by that
@@ -147,9 +148,10 @@ class Kernel(Generic[P, R]):
     """A stepping function that runs plain or compiled: a call from Python takes the path of the enclosing
     ``compiled()`` block, or ``enabled()`` outside one."""
 
-    def __init__(self, fn: Callable[P, R], counted: bool = True) -> None:
+    def __init__(self, fn: Callable[P, R], counted: bool = True, inline: bool = False) -> None:
         self.py_func = fn
         self.counted = counted
+        self.inline = inline
         self.parallel = any(fn.__globals__.get(name) is prange for name in fn.__code__.co_names)
         self.sources = {fn.__code__.co_filename}  # and, once compiled, the files of the kernels it calls
         self._plain: Callable[P, R] | None = None
@@ -208,6 +210,8 @@ class Kernel(Generic[P, R]):
             flags = {"cache": True, "fastmath": False, "error_model": "numpy", "parallel": parallel}
             if not self.counted:
                 flags["_nrt"] = False
+            if self.inline:
+                flags["inline"] = "always"
             # numba's cached code names the module it was compiled in and imports it when loaded: a file
             # imported under another module name (a local plugin) needs a build of its own
             with _cache_dir(numba, self.sources, {**flags, "module": self.py_func.__module__}):
@@ -242,6 +246,14 @@ def leaf(fn: Callable[P, R]) -> Kernel[P, R]:
     twenty times its arithmetic), and a pass over a pile's contact points makes several calls a point.
     Same code, same numbers; a leaf that tried to make an array would fail to compile."""
     return Kernel(fn, counted=False)
+
+
+def inlined(fn: Callable[P, R]) -> Kernel[P, R]:
+    """A ``leaf`` that numba copies into every compiled kernel calling it instead of calling it. LLVM inlines
+    small leaves by itself; one too large for that (a two-point manifold's block solve, with the velocities
+    and impulses it inlines in turn) is called, and the call passes its twenty arguments and its result
+    through memory, which on a pass over a pile costs a tenth of the pass. Same code, same numbers."""
+    return Kernel(fn, counted=False, inline=True)
 
 
 def cache_root() -> Path:

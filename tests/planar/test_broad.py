@@ -94,3 +94,58 @@ def test_two_static_boxes_are_never_a_candidate_and_a_small_room_reports_the_cou
         keys = np.zeros(2, np.int64)
         assert candidate_pairs(x, y, reach, reach, np.array([True, True, False]), 0.0, keys) == 2
     assert keys.tolist() == [0 * 3 + 2, 1 * 3 + 2]
+
+
+@pytest.mark.parametrize("compiled", [False, True])
+def test_kept_candidates_give_the_points_of_testing_every_pair_while_boxes_drift_and_jump(compiled: bool) -> None:
+    """``collide_near`` reuses its candidates while every box stays within its widened bounds and finds them
+    again when one leaves: over drifts of a millimetre (kept), of 3 cm (some leave the 5 cm looseness) and a
+    jump across the scene, its points are those of testing every pair, each time."""
+    from stackx.models.planar.collide import collide_near
+
+    x, y, angle, hx, hy, static = scene(3, 80)
+    rng = np.random.default_rng(7)
+    room, margin, fat = 3000, 0.02, 0.12
+    near, wide = np.empty(4 * len(x) + 17, np.int64), np.empty((len(x), 4))
+    near[0] = -1
+    refound = 0
+    for step in range(12):
+        size = 0.001 if step < 6 else 0.03
+        move = ~static
+        x[move] += rng.uniform(-size, size, move.sum())
+        y[move] += rng.uniform(-size, size, move.sum())
+        angle[move] += rng.uniform(-size, size, move.sum())
+        if step == 9:
+            x[5] += 4.0  # a jump: far out of its bounds
+        before = near[0], near[1:near[0] + 1].copy()
+        got = (np.zeros(room, np.int64), np.zeros(room, np.int64), np.zeros((room, 2)), np.zeros((room, 2)),
+               np.zeros(room), np.zeros(room, np.int64))
+        with kernel.compiled(compiled):
+            n, near = collide_near(x, y, angle, hx, hy, static, margin, fat, near, wide, *got)
+        refound += before[0] != near[0] or not np.array_equal(before[1], near[1:near[0] + 1])
+        want_n, want = every_pair(x, y, angle, hx, hy, static, margin, room)
+        assert n == want_n > 50
+        for g, w in zip(got, want):
+            np.testing.assert_array_equal(g[:n], w[:n])
+    assert 2 <= refound < 12  # found at the first call and again after the jump, kept at least once
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_the_touching_points_of_a_speculative_test_are_those_of_a_test_with_no_margin(seed: int) -> None:
+    """What lets a solver correct positions on its speculative contacts (``contacts.correct_positions`` passes
+    over points still apart): the points with depth >= 0 of a test within a margin are, in the same order,
+    all the points of the test with none."""
+    x, y, angle, hx, hy, static = scene(seed, 120)
+    room = 4000
+    found = {}
+    for margin in (0.0, 0.02, 0.3):
+        out = (np.zeros(room, np.int64), np.zeros(room, np.int64), np.zeros((room, 2)), np.zeros((room, 2)),
+               np.zeros(room), np.zeros(room, np.int64))
+        with kernel.compiled(True):
+            n = collide(x, y, angle, hx, hy, static, margin, *out)
+        touching = out[4][:n] >= 0.0
+        found[margin] = [column[:n][touching] for column in out]
+        assert margin == 0.0 or not touching.all()  # the margin did add points still apart
+    for margin in (0.02, 0.3):
+        for got, want in zip(found[margin], found[0.0]):
+            np.testing.assert_array_equal(got, want)

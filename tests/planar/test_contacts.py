@@ -100,10 +100,28 @@ def test_the_lab_correction_pushes_each_point_after_the_pushes_before_it() -> No
     slop, percent = 0.01, 0.2
     first = percent * (0.05 - slop)
     second = percent * (0.05 - first - slop)  # the second point sees what the first already undid
-    correct_positions(s.x[0], s.y[0], s.inv_mass[0], ids, table, count, slop, percent, np.zeros((1, 2)))
+    assert correct_positions(s.x[0], s.y[0], s.inv_mass[0], ids, table, count, slop, percent, np.zeros((1, 2)))
     assert count == 2
     assert s.y[0, 0] == pytest.approx(0.45 + first + second, abs=1e-15)
     assert s.x[0, 0] == 0.0 and s.angle[0, 0] == 0.0
+
+
+def test_the_lab_correction_says_whether_it_moved_and_passes_over_points_still_apart() -> None:
+    """Sunk within slop: nothing moves and it says so. A point still apart (from a speculative margin) is
+    passed over even where the pushes before it closed its gap past the slop: it is not in the table with no
+    margin that the stage is defined on."""
+    s = world([{"x": 0.0, "y": 0.495}])
+    ids, table, count = _table(s)
+    assert count == 2 and not correct_positions(s.x[0], s.y[0], s.inv_mass[0], ids, table, count, 0.01, 0.2,
+                                                np.zeros((1, 2)))
+    assert s.y[0, 0] == 0.495
+    s = world([{"x": 0.0, "y": 0.45}])
+    ids, table, count = _table(s)
+    table[0, DEPTH] = 0.2  # a first push that moves the box up by 3.8 cm
+    table[1, DEPTH] = -0.001  # the second point apart, along a normal that push closes it by
+    table[1, NX], table[1, NY] = 0.0, -1.0
+    assert correct_positions(s.x[0], s.y[0], s.inv_mass[0], ids, table, count, 0.01, 0.2, np.zeros((1, 2)))
+    assert s.y[0, 0] == 0.45 + 0.2 * (0.2 - 0.01)  # the first push only
 
 
 def test_memory_finds_each_point_by_its_bodies_and_feature() -> None:
@@ -148,3 +166,48 @@ def test_a_point_records_its_depth_and_the_normal_of_its_face() -> None:
     assert [(ids[k, A], table[k, NX], table[k, NY], table[k, DEPTH]) for k in range(count)] == \
         [(-1, 0.0, 1.0, pytest.approx(0.05, abs=1e-15))] * 2
     assert table[:count, PN].tolist() == [0.0, 0.0] and table[:count, PT].tolist() == [0.0, 0.0]
+
+
+@pytest.mark.parametrize("compiled", [False, True])
+def test_a_pass_in_manifold_order_gives_the_numbers_of_a_table_order_sweep(compiled: bool) -> None:
+    """``manifold_order`` only swaps manifolds that share no body: every body meets its manifolds in table
+    order, so a pass (accumulated or the lab's) gives the velocities and impulses of visiting the table from
+    top to bottom, bit for bit; and on a pile it does reorder (that is what it is for)."""
+    from stackx import kernel
+    from stackx.scenes.planar import Planar, PlanarParams, Pyramid
+    from stackx.solvers.planar.contacts import accumulated_iteration, manifold_order, manifold_size, set_targets
+    from stackx.solvers.planar.pgs import lab_pass
+    from tests.planar.worlds import run
+
+    s = Planar(PlanarParams(pyramid=Pyramid(rows=6, gap=0.0, friction=0.5))).build()
+    s.inv_mass[0, 3], s.inv_inertia[0, 3] = 0.0, 0.0  # a static box in the middle of the bottom row
+    run("planar-warm-start", s, 5, {"iterations": 3})  # moving, not at rest
+    s.vx[0] += np.linspace(-0.3, 0.3, s.bodies)  # and pushed about, so every visit acts
+    s.w[0] += np.linspace(0.2, -0.2, s.bodies)
+    ids, table, count = _table(s, 0.02)
+    with kernel.compiled(compiled):
+        set_targets(table, count, 1 / 60)
+        order = manifold_order(ids, count, s.bodies)
+    starts = [0]
+    while starts[-1] + manifold_size(ids, count, starts[-1]) < count:
+        starts.append(starts[-1] + manifold_size(ids, count, starts[-1]))
+    assert sorted(order) == starts and list(order) != starts
+    for body in range(s.bodies):  # each body's manifolds keep their table order
+        mine = [k for k in order if body in (ids[k, A], ids[k, B])]
+        assert mine == sorted(mine)
+    table_order = np.array(starts, np.int64)
+    for visit in ("lab", "block", "points"):
+        got, want = s.copy(), s.copy()
+        got_table, want_table = table.copy(), table.copy()
+        with kernel.compiled(compiled):
+            for t, st, o in ((got_table, got, order), (want_table, want, table_order)):
+                for _ in range(4):
+                    args = (st.vx[0], st.vy[0], st.w[0], st.inv_mass[0], st.inv_inertia[0], ids, t, count, o)
+                    if visit == "lab":
+                        lab_pass(*args)
+                    else:
+                        accumulated_iteration(*args, visit == "block", 1.3)
+        assert got_table.tobytes() == want_table.tobytes(), visit
+        for field in ("vx", "vy", "w"):
+            assert getattr(got, field).tobytes() == getattr(want, field).tobytes(), (visit, field)
+        assert not np.array_equal(want.vx, s.vx)  # the passes did act

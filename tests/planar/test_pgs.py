@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from stackx import kernel
-from stackx.solvers.planar.contacts import KN, MU, PN, PT, prepare, contact_workspace, find_contacts
+from stackx.solvers.planar.contacts import KN, MU, PN, PT, contact_workspace, find_contacts, manifold_order, prepare
 from stackx.solvers.planar.pgs import PlanarPGSParams, lab_pass
 from tests.planar.worlds import DT, G, deepest, run, world
 
@@ -52,13 +52,14 @@ def test_friction_per_visit_never_exceeds_mu_times_that_visits_normal_impulse() 
     ids, table, count = find_contacts(s.x[0], s.y[0], s.angle[0], s.hx[0], s.hy[0], s.inv_mass[0], 0.0, ids, table)
     prepare(s.x[0], s.y[0], s.inv_mass[0], s.inv_inertia[0], s.friction[0], ids, table, count)
     assert count == 2
+    order = manifold_order(ids, count, 1)
     first = -(-1.0) * table[0, KN]  # the first visit stops the first corner's approach of 1 m/s
-    lab_pass(s.vx[0], s.vy[0], s.w[0], s.inv_mass[0], s.inv_inertia[0], ids, table, count)
+    lab_pass(s.vx[0], s.vy[0], s.w[0], s.inv_mass[0], s.inv_inertia[0], ids, table, count, order)
     assert table[0, PN] == pytest.approx(first, rel=1e-12)
     for k in range(count):  # sliding fast: each visit's friction is at its bound, against the motion (the
         assert table[k, PT] == pytest.approx(table[k, MU] * table[k, PN], rel=1e-12)  # tangent is -x here)
     for _ in range(20):  # later visits: each bounded by its own normal impulse, so the sums are too
-        lab_pass(s.vx[0], s.vy[0], s.w[0], s.inv_mass[0], s.inv_inertia[0], ids, table, count)
+        lab_pass(s.vx[0], s.vy[0], s.w[0], s.inv_mass[0], s.inv_inertia[0], ids, table, count, order)
         assert all(abs(table[k, PT]) <= table[k, MU] * table[k, PN] * (1 + 1e-12) for k in range(count))
     assert s.vx[0, 0] > 0.0  # friction slowed the box, never reversed it
 

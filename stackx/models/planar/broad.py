@@ -141,6 +141,30 @@ def candidate_pairs(x: np.ndarray, y: np.ndarray, reach_x: np.ndarray, reach_y: 
 
 
 @leaf
+def widen(x: np.ndarray, y: np.ndarray, reach_x: np.ndarray, reach_y: np.ndarray, fat: float,
+          wide: np.ndarray) -> None:
+    """Each box's bounding box grown by ``fat / 2``, into ``wide`` (``(bodies, 4)``: low x, high x, low y,
+    high y): the bounds within which the candidates found with margin ``fat`` stay valid (``inside``)."""
+    for i in range(x.shape[0]):
+        wide[i, 0], wide[i, 1] = x[i] - reach_x[i] - 0.5 * fat, x[i] + reach_x[i] + 0.5 * fat
+        wide[i, 2], wide[i, 3] = y[i] - reach_y[i] - 0.5 * fat, y[i] + reach_y[i] + 0.5 * fat
+
+
+@leaf
+def inside(x: np.ndarray, y: np.ndarray, reach_x: np.ndarray, reach_y: np.ndarray, margin: float,
+           wide: np.ndarray) -> bool:
+    """Whether every box's bounding box grown by ``margin / 2`` (and by ``ROUNDING`` of its distance from
+    the origin, more than rounding could move a bound) lies inside its ``wide`` bounds; a bound that is
+    not a number is outside."""
+    for i in range(x.shape[0]):
+        pad = 0.5 * margin + ROUNDING * (abs(x[i]) + abs(y[i]) + reach_x[i] + reach_y[i] + 1.0)
+        if not (x[i] - reach_x[i] - pad >= wide[i, 0] and x[i] + reach_x[i] + pad <= wide[i, 1]
+                and y[i] - reach_y[i] - pad >= wide[i, 2] and y[i] + reach_y[i] + pad <= wide[i, 3]):
+            return False
+    return True
+
+
+@leaf
 def in_order(keys: np.ndarray, count: int, n: int, first: np.ndarray, scratch: np.ndarray) -> None:
     """Sort the ``count`` pair keys ``i * n + j`` increasingly: a counting sort by ``i`` (``first``: ``n + 1``
     zeros), then each box's few partners by insertion. Linear in the pairs, where a comparison sort of keys

@@ -22,7 +22,7 @@ from __future__ import annotations
 import numpy as np
 
 from stackx.kernel import kernel, leaf
-from stackx.models.planar.broad import bounds, candidate_pairs
+from stackx.models.planar.broad import bounds, candidate_pairs, inside, widen
 
 GROUND = -1
 REFERENCE_BIAS = 0.98  # box b becomes the reference only when clearly better: keeps the choice from flipping
@@ -184,6 +184,27 @@ def collide(x: np.ndarray, y: np.ndarray, angle: np.ndarray, hx: np.ndarray, hy:
     The pairs are the broad phase's candidates (``broad.candidate_pairs``, a grid: linear in the boxes),
     each tested again here as every pair once was, so the points and their order are those of testing
     every pair."""
+    near = np.empty(4 * x.shape[0] + 17, np.int64)
+    near[0] = -1  # no candidates kept: found afresh, within ``margin``
+    count, _ = collide_near(x, y, angle, hx, hy, static, margin, margin, near, np.empty((x.shape[0], 4)), body_a,
+                            body_b, normal, point, depths, features)
+    return count
+
+
+@kernel
+def collide_near(x: np.ndarray, y: np.ndarray, angle: np.ndarray, hx: np.ndarray, hy: np.ndarray,
+                 static: np.ndarray, margin: float, fat: float, near: np.ndarray, wide: np.ndarray,
+                 body_a: np.ndarray, body_b: np.ndarray, normal: np.ndarray, point: np.ndarray, depths: np.ndarray,
+                 features: np.ndarray) -> tuple[int, np.ndarray]:
+    """``collide`` with the broad phase's candidates kept from one call to the next (Box2D's fat bounding
+    boxes): ``near[0]`` candidate pairs (-1: none yet) in ``near[1:]``, found within ``fat`` >= ``margin``
+    while each box stood inside its bounds ``wide`` (``(bodies, 4)``: low x, high x, low y, high y, grown by
+    ``fat / 2``). A call whose boxes, grown by ``margin / 2``, all still lie inside their ``wide`` bounds
+    reuses them: every pair within ``margin`` now was within ``fat`` then, and the narrow phase's own test
+    drops the rest, so the points and their order are ``collide``'s. Otherwise they are found again around
+    where the boxes are now. A resting pile then pays for no broad phase; a wider ``fat`` keeps candidates
+    through larger motions and hands the narrow phase more pairs to reject. Returns the count and ``near``
+    (a larger array when the candidates outgrew it)."""
     bodies = x.shape[0]
     n = 0
     cos, sin = np.empty(bodies), np.empty(bodies)
@@ -195,14 +216,16 @@ def collide(x: np.ndarray, y: np.ndarray, angle: np.ndarray, hx: np.ndarray, hy:
         if not static[i] and y[i] - reach_y[i] <= margin:
             n = ground_points(i, x[i], y[i], cos[i], sin[i], hx[i], hy[i], margin, n, body_a, body_b, normal,
                               point, depths, features)
-    keys = np.empty(4 * bodies + 16, np.int64)
-    pairs = candidate_pairs(x, y, reach_x, reach_y, static, margin, keys)
-    if pairs > keys.shape[0]:
-        keys = np.empty(pairs, np.int64)
-        pairs = candidate_pairs(x, y, reach_x, reach_y, static, margin, keys)
-    for p in range(pairs):
-        i, j = keys[p] // bodies, keys[p] % bodies
+    if near[0] < 0 or not inside(x, y, reach_x, reach_y, margin, wide):
+        pairs = candidate_pairs(x, y, reach_x, reach_y, static, fat, near[1:])
+        if pairs > near.shape[0] - 1:
+            near = np.empty(pairs + 1, np.int64)
+            pairs = candidate_pairs(x, y, reach_x, reach_y, static, fat, near[1:])
+        near[0] = pairs
+        widen(x, y, reach_x, reach_y, fat, wide)
+    for p in range(1, near[0] + 1):
+        i, j = near[p] // bodies, near[p] % bodies
         if abs(x[i] - x[j]) > reach_x[i] + reach_x[j] + margin or abs(y[i] - y[j]) > reach_y[i] + reach_y[j] + margin:
             continue
         n = box_points(i, j, x, y, corners, faces, margin, n, body_a, body_b, normal, point, depths, features)
-    return n
+    return n, near

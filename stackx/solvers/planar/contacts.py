@@ -13,6 +13,8 @@ Functions, in the order a step uses them:
 - ``gravity(vy, inv_mass, g, dt)``: ``vy += g * dt`` for every movable body;
 - ``find_contacts(...)``: fill the table from ``collide`` (points within ``margin`` of touching), growing it
   when the world has more points than room; returns the (maybe new) table and the count;
+- ``find_contacts_near(...)``: the same, keeping the broad phase's candidates from one call to the next
+  while the boxes stay within ``LOOSENESS`` of where they were found (``near_workspace`` makes the room);
 - ``observed_contacts(...)``: ``find_contacts`` where a step ended, the list serving both the step's monitors
   and the next step (which starts at the same positions): one collision test a step, not one per use;
 - ``prepare(...)``: per point the anchors ``r_A``, ``r_B`` (the point minus each centre), the effective normal
@@ -31,6 +33,8 @@ Functions, in the order a step uses them:
 - ``normal_visit``, ``block_normal``, ``friction_visit``: one point's normal total, the two normal totals of
   a two-point manifold solved together (Box2D 2.x's block solver), or one point's friction total, with
   accumulated clamping: the normal total >= 0, the friction total within ``[-mu pn, mu pn]``;
+- ``manifold_order(...)``: the order a pass visits the manifolds in: table order for every body (so the
+  numbers of a table-order sweep), manifolds that share no body side by side so they overlap in the processor;
 - ``accumulated_iteration(...)``: one Gauss-Seidel pass over the manifolds, normals then friction, each
   normal step optionally over-relaxed;
 - ``solve_velocities(...)``: the velocity half of a step with accumulated impulses on the step's points, the
@@ -53,8 +57,8 @@ from __future__ import annotations
 import numpy as np
 
 from stackx.solvers.correct import correct
-from stackx.kernel import kernel, leaf
-from stackx.models.planar.collide import collide
+from stackx.kernel import inlined, kernel, leaf
+from stackx.models.planar.collide import collide, collide_near
 from stackx.models.planar.monitor import observe, observe_points
 from stackx.models.touch import TOUCH_GAP
 
@@ -70,6 +74,7 @@ LNX, LNY, LFX, LFY, LQX, LQY = range(15, 21)
 K11, K12, K22, CONDITIONED = range(21, 25)
 COLUMNS = 25
 FLIPPED = 64  # collide's features from 64 up: the reference face is on body B
+LOOSENESS = 0.05  # m a side the kept candidates' bounds are grown by (Box2D v3's B2_MAX_AABB_MARGIN)
 BLOCK_CONDITION = 1000.0  # largest condition (k11^2 / det) a two-point block is solved at (Box2D 2.x's)
 
 
@@ -103,6 +108,33 @@ def find_contacts(x: np.ndarray, y: np.ndarray, angle: np.ndarray, hx: np.ndarra
 
 
 @kernel
+def near_workspace(bodies: int) -> tuple[np.ndarray, np.ndarray]:
+    """Room for the broad phase's candidates kept between a step's collision tests (``find_contacts_near``):
+    ``(near, wide)``, none kept yet."""
+    near = np.empty(4 * bodies + 17, np.int64)
+    near[0] = -1
+    return near, np.empty((bodies, 4))
+
+
+@kernel
+def find_contacts_near(x: np.ndarray, y: np.ndarray, angle: np.ndarray, hx: np.ndarray, hy: np.ndarray,
+                       inv_mass: np.ndarray, margin: float, near: np.ndarray, wide: np.ndarray, ids: np.ndarray,
+                       table: np.ndarray) -> tuple[np.ndarray, np.ndarray, int, np.ndarray]:
+    """``find_contacts``, the same points in the same order, with the broad phase's candidates kept in
+    ``near`` and ``wide`` (``near_workspace``) from one call to the next while no box moved out of its
+    bounds grown by ``LOOSENESS`` a side (``collide.collide_near``): a pile at rest, tested two or three
+    times a step, finds its candidate pairs once. Returns ``(ids, table, count, near)``."""
+    static = inv_mass == 0.0
+    while True:
+        count, near = collide_near(x, y, angle, hx, hy, static, margin, margin + 2.0 * LOOSENESS, near, wide,
+                                   ids[:, A], ids[:, B], table[:, NX:NY + 1], table[:, PX:PY + 1],
+                                   table[:, DEPTH], ids[:, FEATURE])
+        if count <= ids.shape[0]:
+            return ids, table, count, near
+        ids, table = contact_workspace(count)
+
+
+@kernel
 def observed_contacts(x: np.ndarray, y: np.ndarray, angle: np.ndarray, hx: np.ndarray, hy: np.ndarray,
                       inv_mass: np.ndarray, margin: float, ids: np.ndarray, table: np.ndarray, dt: float,
                       last: np.ndarray, peak: np.ndarray, reach: np.ndarray, touched: np.ndarray,
@@ -116,12 +148,23 @@ def observed_contacts(x: np.ndarray, y: np.ndarray, angle: np.ndarray, hx: np.nd
     monitors take the model's own collision test (``monitor.observe``) instead; once every box has touched,
     the one list serves both."""
     ids, table, count = find_contacts(x, y, angle, hx, hy, inv_mass, margin, ids, table)
+    observe_contacts(x, y, angle, hx, hy, inv_mass, margin, ids, table, count, dt, last, peak, reach, touched,
+                     launch, b)
+    return ids, table, count
+
+
+@kernel
+def observe_contacts(x: np.ndarray, y: np.ndarray, angle: np.ndarray, hx: np.ndarray, hy: np.ndarray,
+                     inv_mass: np.ndarray, margin: float, ids: np.ndarray, table: np.ndarray, count: int, dt: float,
+                     last: np.ndarray, peak: np.ndarray, reach: np.ndarray, touched: np.ndarray,
+                     launch: np.ndarray, b: int) -> None:
+    """The monitors of row ``b`` for a step that ended where the table's ``count`` points (found within
+    ``margin``) were found: ``observed_contacts`` for a caller that already holds that table."""
     if margin < TOUCH_GAP and untouched(touched, inv_mass, b):
         observe(x, y, angle, hx, hy, inv_mass, dt, last, peak, reach, touched, launch, b)
     else:
         observe_points(ids[:, A], ids[:, B], table[:, DEPTH], count, y, hx, hy, inv_mass, dt, last, peak, reach,
                        touched, launch, b)
-    return ids, table, count
 
 
 @leaf
@@ -422,7 +465,7 @@ def two_point_lcp(k11: float, k12: float, k22: float, b1: float, b2: float, pair
     return 0.0, 0.0, False
 
 
-@leaf
+@inlined
 def block_step(vax: float, vay: float, wa: float, vbx: float, vby: float, wb: float, grounded: bool,
                ima: float, iia: float, imb: float, iib: float, table: np.ndarray, k: int,
                relaxation: float) -> tuple[bool, float, float, float, float, float, float]:
@@ -477,11 +520,58 @@ def block_normal(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, inv_mass: np.nda
 
 
 @leaf
+def manifold_size(ids: np.ndarray, count: int, k: int) -> int:
+    """How many points the manifold starting at point ``k`` has: 2 when the next point has the same two
+    bodies, else 1 (``collide`` gives at most two a pair)."""
+    return 2 if k + 1 < count and ids[k + 1, A] == ids[k, A] and ids[k + 1, B] == ids[k, B] else 1
+
+
+@kernel
+def manifold_order(ids: np.ndarray, count: int, bodies: int) -> np.ndarray:
+    """The first points of the table's manifolds in the order a pass visits them: for every body, the
+    manifolds that touch it come in table order, so each sees the velocities it would see in a table-order
+    sweep and the pass gives the same numbers bit for bit; between them, manifolds that share no body are
+    brought together (each manifold's **level**, one more than the latest level of its bodies, in increasing
+    level, table order within a level). A table-order sweep of a pile is one long chain, every manifold
+    waiting for the one before through a shared body; by level, consecutive visits are independent and the
+    processor overlaps them (a fifth to a quarter off a pass on a 20-row pyramid). The ground is shared by
+    none; a static box is treated like any other body, so the order stays exact however its velocities
+    turn out."""
+    latest = np.full(bodies, -1, np.int64)
+    first = np.empty(count, np.int64)
+    level = np.empty(count, np.int64)
+    manifolds, deepest = 0, -1
+    k = 0
+    while k < count:
+        a, b = ids[k, A], ids[k, B]
+        here = latest[b] + 1
+        if a >= 0:
+            here = max(here, latest[a] + 1)
+            latest[a] = here
+        latest[b] = here
+        first[manifolds], level[manifolds] = k, here
+        deepest = max(deepest, here)
+        manifolds += 1
+        k += manifold_size(ids, count, k)
+    start = np.zeros(deepest + 2, np.int64)  # a counting sort by level, table order kept within one
+    for m in range(manifolds):
+        start[level[m] + 1] += 1
+    for v in range(deepest + 1):
+        start[v + 1] += start[v]
+    order = np.empty(manifolds, np.int64)
+    for m in range(manifolds):
+        order[start[level[m]]] = first[m]
+        start[level[m]] += 1
+    return order
+
+
+@leaf
 def accumulated_iteration(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, inv_mass: np.ndarray,
                           inv_inertia: np.ndarray, ids: np.ndarray, table: np.ndarray, count: int,
-                          block: bool, relaxation: float) -> None:
-    """One Gauss-Seidel pass over the manifolds in table order (a manifold: the one or two consecutive points
-    of the same two bodies) with accumulated clamping: the normals first, both at once (``block_normal``) when
+                          order: np.ndarray, block: bool, relaxation: float) -> None:
+    """One Gauss-Seidel pass over the manifolds (a manifold: the one or two consecutive points of the same
+    two bodies), visited in ``order`` (``manifold_order``: table order for every body, the same numbers as a
+    table-order sweep) with accumulated clamping: the normals first, both at once (``block_normal``) when
     ``block`` and there are two, else point by point; then each point's friction, bounded by the normal total
     just found (Box2D v3's order), so after every visit ``pn >= 0`` and ``|pt| <= mu pn`` hold.
 
@@ -491,9 +581,9 @@ def accumulated_iteration(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, inv_mas
     height. The price: a lone contact's error then shrinks only by ``|1 - w|`` per pass instead of vanishing
     in one, so a fresh impact is resolved over more passes (warm starting carries the rest into the next step).
     """
-    k = 0
-    while k < count:
-        size = 2 if k + 1 < count and ids[k + 1, A] == ids[k, A] and ids[k + 1, B] == ids[k, B] else 1
+    for m in range(order.shape[0]):
+        k = order[m]
+        size = manifold_size(ids, count, k)
         a, b = ids[k, A], ids[k, B]
         grounded = a < 0  # the manifold's two bodies' velocities held in locals over its points
         vax, vay, wa, ima, iia = 0.0, 0.0, 0.0, 0.0, 0.0
@@ -514,10 +604,9 @@ def accumulated_iteration(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, inv_mas
         if not grounded:
             vx[a], vy[a], w[a] = vax, vay, wa
         vx[b], vy[b], w[b] = vbx, vby, wb
-        k += size
 
 
-@leaf
+@kernel
 def solve_velocities(x: np.ndarray, y: np.ndarray, vx: np.ndarray, vy: np.ndarray, w: np.ndarray,
                      inv_mass: np.ndarray, inv_inertia: np.ndarray, friction: np.ndarray, g: float, dt: float,
                      carry: bool, iterations: int, block: bool, relaxation: float, ids: np.ndarray,
@@ -535,8 +624,9 @@ def solve_velocities(x: np.ndarray, y: np.ndarray, vx: np.ndarray, vy: np.ndarra
     if carry:
         recall(ids, table, count, keys, carried, held)
         warm_start(vx, vy, w, inv_mass, inv_inertia, ids, table, count)
+    order = manifold_order(ids, count, vx.shape[0])
     for _ in range(iterations):
-        accumulated_iteration(vx, vy, w, inv_mass, inv_inertia, ids, table, count, block, relaxation)
+        accumulated_iteration(vx, vy, w, inv_mass, inv_inertia, ids, table, count, order, block, relaxation)
     return remember(ids, table, count, keys, carried)
 
 
@@ -552,15 +642,23 @@ def integrate_positions(x: np.ndarray, y: np.ndarray, angle: np.ndarray, vx: np.
 
 @leaf
 def correct_positions(x: np.ndarray, y: np.ndarray, inv_mass: np.ndarray, ids: np.ndarray, table: np.ndarray,
-                      count: int, slop: float, percent: float, shift: np.ndarray) -> None:
-    """The lab's correction on the points of the table (found after the positions moved), in table order.
+                      count: int, slop: float, percent: float, shift: np.ndarray) -> bool:
+    """The lab's correction on the touching points of the table (found after the positions moved), in table
+    order; returns whether it moved any body.
+
+    Points still apart (depth < 0, in a table found within a speculative margin) are passed over: the
+    touching points of such a table are, in the same order, the table found with no margin, so a solver
+    whose next step wants the speculative table finds it once and, when nothing was moved, keeps it.
 
     Each point's depth is the table's less what the pushes before it have already opened along its normal
     (``shift``, ``(bodies, 2)`` scratch: how far each body was pushed in this stage), which is exact for pushes
     that only translate. ``correct`` gives the two moves (split by inverse mass; none within slop).
     """
     shift[:, :] = 0.0
+    moved = False
     for k in range(count):
+        if table[k, DEPTH] < 0.0:
+            continue
         a, b = ids[k, A], ids[k, B]
         nx, ny = table[k, NX], table[k, NY]
         opened = shift[b, 0] * nx + shift[b, 1] * ny
@@ -579,6 +677,8 @@ def correct_positions(x: np.ndarray, y: np.ndarray, inv_mass: np.ndarray, ids: n
             y[b] += up * ny
             shift[b, 0] += up * nx
             shift[b, 1] += up * ny
+        moved = moved or down != 0.0 or up != 0.0
+    return moved
 
 
 @leaf

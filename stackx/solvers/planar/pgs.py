@@ -4,8 +4,9 @@ One step of one world, in the lab's order:
 1. gravity: ``vy += g*dt`` for every movable box;
 2. contacts: the points that overlap now (depth > 0), with anchors and effective masses (``contacts``);
 3. ``iterations`` velocity passes, each visiting the points in table order (ground points first, then pairs
-   by index), every point seeing the velocities the earlier visits left (Gauss-Seidel). A visit stops the
-   point's approach along the normal (restitution 0) with an impulse clamped at 0 on its own, then applies
+   by index), every point seeing the velocities the earlier visits left (Gauss-Seidel; visits that share no
+   body may swap, which changes no number: ``contacts.manifold_order``). A visit stops the point's approach
+   along the normal (restitution 0) with an impulse clamped at 0 on its own, then applies
    friction clamped by that same visit's normal impulse: the lab has no accumulated impulse, so a visit that
    finds the point already separating (no normal impulse) holds nothing sideways either;
 4. positions and angles move with the velocities;
@@ -28,9 +29,10 @@ from stackx.models.planar.state import PlanarState
 from stackx.registry import solvers
 from stackx.solvers.base import Correction, LabCorrection
 from stackx.solvers.planar.base import PlanarSolver, sequential_only
-from stackx.solvers.planar.contacts import (DEPTH, KN, KT, MU, NX, NY, PN, PT, apply_impulse, contact_workspace,
-                                            correct_positions, find_contacts, gravity, integrate_positions,
-                                            observed_contacts, prepare, relative_velocity)
+from stackx.solvers.planar.contacts import (A, B, DEPTH, KN, KT, MU, NX, NY, PN, PT, contact_workspace,
+                                            correct_positions, find_contacts_near, gravity, integrate_positions,
+                                            manifold_impulse, manifold_order, manifold_size, manifold_velocity,
+                                            near_workspace, observe_contacts, prepare)
 
 
 class PlanarPGSParams(BaseModel):
@@ -49,25 +51,44 @@ class PlanarPGSParams(BaseModel):
 
 @leaf
 def lab_pass(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, inv_mass: np.ndarray, inv_inertia: np.ndarray,
-             ids: np.ndarray, table: np.ndarray, count: int) -> None:
+             ids: np.ndarray, table: np.ndarray, count: int, order: np.ndarray) -> None:
     """One pass of per-visit clamped impulses over the overlapping points: stop the approach, then friction
-    within ``mu`` times this visit's normal impulse. ``PN``/``PT`` add up what the visits gave (a record)."""
-    for k in range(count):
-        if table[k, DEPTH] <= 0.0:
-            continue
-        nx, ny = table[k, NX], table[k, NY]
-        un = relative_velocity(vx, vy, w, ids, table, k, nx, ny)
-        pn = 0.0
-        if un < 0.0:
-            pn = -un * table[k, KN]
-            apply_impulse(vx, vy, w, inv_mass, inv_inertia, ids, table, k, pn * nx, pn * ny)
-            table[k, PN] += pn
-        limit = table[k, MU] * pn
-        if limit > 0.0:
-            pt = -relative_velocity(vx, vy, w, ids, table, k, -ny, nx) * table[k, KT]
-            pt = min(max(pt, -limit), limit)
-            apply_impulse(vx, vy, w, inv_mass, inv_inertia, ids, table, k, -pt * ny, pt * nx)
-            table[k, PT] += pt
+    within ``mu`` times this visit's normal impulse. ``PN``/``PT`` add up what the visits gave (a record).
+
+    The points are visited manifold by manifold in ``order`` (``contacts.manifold_order``): for every body
+    its points come in table order, so the numbers are those of visiting the table from top to bottom, while
+    manifolds that share no body come side by side and overlap in the processor. A manifold's two bodies'
+    velocities are held in locals over its points (``manifold_velocity``, ``manifold_impulse``: the same
+    arithmetic as ``relative_velocity`` and ``apply_impulse``)."""
+    for m in range(order.shape[0]):
+        k = order[m]
+        a, b = ids[k, A], ids[k, B]
+        grounded = a < 0
+        vax, vay, wa, ima, iia = 0.0, 0.0, 0.0, 0.0, 0.0
+        if not grounded:
+            vax, vay, wa, ima, iia = vx[a], vy[a], w[a], inv_mass[a], inv_inertia[a]
+        vbx, vby, wb, imb, iib = vx[b], vy[b], w[b], inv_mass[b], inv_inertia[b]
+        for i in range(k, k + manifold_size(ids, count, k)):
+            if table[i, DEPTH] <= 0.0:
+                continue
+            nx, ny = table[i, NX], table[i, NY]
+            un = manifold_velocity(vax, vay, wa, vbx, vby, wb, grounded, table, i, nx, ny)
+            pn = 0.0
+            if un < 0.0:
+                pn = -un * table[i, KN]
+                vax, vay, wa, vbx, vby, wb = manifold_impulse(vax, vay, wa, vbx, vby, wb, grounded, ima, iia, imb,
+                                                              iib, table, i, pn * nx, pn * ny)
+                table[i, PN] += pn
+            limit = table[i, MU] * pn
+            if limit > 0.0:
+                pt = -manifold_velocity(vax, vay, wa, vbx, vby, wb, grounded, table, i, -ny, nx) * table[i, KT]
+                pt = min(max(pt, -limit), limit)
+                vax, vay, wa, vbx, vby, wb = manifold_impulse(vax, vay, wa, vbx, vby, wb, grounded, ima, iia, imb,
+                                                              iib, table, i, -pt * ny, pt * nx)
+                table[i, PT] += pt
+        if not grounded:
+            vx[a], vy[a], w[a] = vax, vay, wa
+        vx[b], vy[b], w[b] = vbx, vby, wb
 
 
 @kernel
@@ -82,19 +103,24 @@ def planar_pgs_advance(x: np.ndarray, y: np.ndarray, angle: np.ndarray, vx: np.n
         xb, yb, ab, vxb, vyb, wb = x[b], y[b], angle[b], vx[b], vy[b], w[b]  # the row's views, made once
         im, ii, hxb, hyb, mub = inv_mass[b], inv_inertia[b], hx[b], hy[b], friction[b]
         ids, table = contact_workspace(contact_room(x.shape[1]))
+        near, wide = near_workspace(x.shape[1])  # the candidate pairs, kept while the boxes stay near
         shift = np.zeros((x.shape[1], 2))
-        ids, table, count = find_contacts(xb, yb, ab, hxb, hyb, im, 0.0, ids, table)
+        ids, table, count, near = find_contacts_near(xb, yb, ab, hxb, hyb, im, 0.0, near, wide, ids, table)
         for _ in range(steps):
             gravity(vyb, im, g[b], dt[b])
             prepare(xb, yb, im, ii, mub, ids, table, count)
+            order = manifold_order(ids, count, x.shape[1])
             for _ in range(iterations[b]):
-                lab_pass(vxb, vyb, wb, im, ii, ids, table, count)
+                lab_pass(vxb, vyb, wb, im, ii, ids, table, count, order)
             integrate_positions(xb, yb, ab, vxb, vyb, wb, dt[b])
+            moved = True
             if corrects[b]:
-                ids, table, count = find_contacts(xb, yb, ab, hxb, hyb, im, 0.0, ids, table)
-                correct_positions(xb, yb, im, ids, table, count, slop[b], percent[b], shift)
-            ids, table, count = observed_contacts(xb, yb, ab, hxb, hyb, im, 0.0, ids, table, dt[b], last, peak,
-                                                  reach, touched, launch, b)
+                ids, table, count, near = find_contacts_near(xb, yb, ab, hxb, hyb, im, 0.0, near, wide, ids, table)
+                moved = correct_positions(xb, yb, im, ids, table, count, slop[b], percent[b], shift)
+            if moved:  # the contacts where the step ends, the next step's; unchanged if nothing was pushed
+                ids, table, count, near = find_contacts_near(xb, yb, ab, hxb, hyb, im, 0.0, near, wide, ids, table)
+            observe_contacts(xb, yb, ab, hxb, hyb, im, 0.0, ids, table, count, dt[b], last, peak, reach, touched,
+                             launch, b)
 
 
 @solvers.register("planar-pgs")

@@ -16,7 +16,9 @@ One step of one world (``contacts.solve_velocities``, then positions):
    ``block``), then each point's friction within ``mu`` times its normal total; ``relaxation`` over-relaxes
    the normal steps;
 5. positions and angles move with the velocities;
-6. the lab's position correction (slop, percent), translation only.
+6. the lab's position correction (slop, percent), translation only, on the touching points of the contacts
+   found where the positions moved; when it moves nothing (a pile at rest), those contacts are the next
+   step's and the step needs one collision test, not two.
 
 Why the lab's correction and not a Baumgarte bias: a bias is a velocity, so every push-out becomes momentum
 that the warm start carries into the next step (the lab's "common mistake"); the lab's stage moves positions
@@ -41,8 +43,9 @@ from stackx.registry import solvers
 from stackx.solvers.base import Correction, LabCorrection
 from stackx.solvers.contacts import speculative_field
 from stackx.solvers.planar.base import PlanarMemorySolver, sequential_only
-from stackx.solvers.planar.contacts import (contact_workspace, correct_positions, find_contacts,
-                                            integrate_positions, observed_contacts, solve_velocities)
+from stackx.solvers.planar.contacts import (contact_workspace, correct_positions, find_contacts_near,
+                                            integrate_positions, near_workspace, observe_contacts,
+                                            solve_velocities)
 
 
 class PlanarWarmStartParams(BaseModel):
@@ -89,17 +92,24 @@ def planar_warm_start_advance(x: np.ndarray, y: np.ndarray, angle: np.ndarray, v
         xb, yb, ab, vxb, vyb, wb = x[b], y[b], angle[b], vx[b], vy[b], w[b]  # the row's views, made once
         im, ii, hxb, hyb, mub = inv_mass[b], inv_inertia[b], hx[b], hy[b], friction[b]
         ids, table = contact_workspace(keys.shape[1])
+        near, wide = near_workspace(x.shape[1])  # the candidate pairs, kept while the boxes stay near
         shift = np.zeros((x.shape[1], 2))
-        ids, table, count = find_contacts(xb, yb, ab, hxb, hyb, im, speculative[b], ids, table)
+        ids, table, count, near = find_contacts_near(xb, yb, ab, hxb, hyb, im, speculative[b], near, wide, ids,
+                                                     table)
         for _ in range(steps):
             held[b] = solve_velocities(xb, yb, vxb, vyb, wb, im, ii, mub, g[b], dt[b], carry[b], iterations[b],
                                        block[b], relaxation[b], ids, table, count, keys[b], carried[b], held[b])
             integrate_positions(xb, yb, ab, vxb, vyb, wb, dt[b])
-            if corrects[b]:
-                ids, table, count = find_contacts(xb, yb, ab, hxb, hyb, im, 0.0, ids, table)
-                correct_positions(xb, yb, im, ids, table, count, slop[b], percent[b], shift)
-            ids, table, count = observed_contacts(xb, yb, ab, hxb, hyb, im, speculative[b], ids, table, dt[b],
-                                                  last, peak, reach, touched, launch, b)
+            moved = True
+            if corrects[b]:  # the speculative table's touching points are the correction's (correct_positions)
+                ids, table, count, near = find_contacts_near(xb, yb, ab, hxb, hyb, im, speculative[b], near, wide,
+                                                             ids, table)
+                moved = correct_positions(xb, yb, im, ids, table, count, slop[b], percent[b], shift)
+            if moved:  # a correction that moved nothing leaves the table the next step wants
+                ids, table, count, near = find_contacts_near(xb, yb, ab, hxb, hyb, im, speculative[b], near, wide,
+                                                             ids, table)
+            observe_contacts(xb, yb, ab, hxb, hyb, im, speculative[b], ids, table, count, dt[b], last, peak, reach,
+                             touched, launch, b)
 
 
 @solvers.register("planar-warm-start")
