@@ -175,7 +175,8 @@ def test_a_pass_in_manifold_order_gives_the_numbers_of_a_table_order_sweep(compi
     top to bottom, bit for bit; and on a pile it does reorder (that is what it is for)."""
     from stackx import kernel
     from stackx.scenes.planar import Planar, PlanarParams, Pyramid
-    from stackx.solvers.planar.contacts import accumulated_iteration, manifold_order, manifold_size, set_targets
+    from stackx.solvers.planar.contacts import accumulated_iteration, manifold_size, set_targets
+    from stackx.solvers.planar.wavefront import manifold_order
     from stackx.solvers.planar.pgs import lab_pass
     from tests.planar.worlds import run
 

@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 
 from stackx import kernel
-from stackx.solvers.planar.contacts import KN, MU, PN, PT, contact_workspace, find_contacts, manifold_order, prepare
+from stackx.solvers.planar.contacts import KN, MU, PN, PT, contact_workspace, find_contacts, prepare
+from stackx.solvers.planar.wavefront import manifold_order
 from stackx.solvers.planar.pgs import PlanarPGSParams, lab_pass
 from tests.planar.worlds import DT, G, deepest, run, world
 

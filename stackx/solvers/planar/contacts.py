@@ -33,8 +33,8 @@ Functions, in the order a step uses them:
 - ``normal_visit``, ``block_normal``, ``friction_visit``: one point's normal total, the two normal totals of
   a two-point manifold solved together (Box2D 2.x's block solver), or one point's friction total, with
   accumulated clamping: the normal total >= 0, the friction total within ``[-mu pn, mu pn]``;
-- ``manifold_order(...)``: the order a pass visits the manifolds in: table order for every body (so the
-  numbers of a table-order sweep), manifolds that share no body side by side so they overlap in the processor;
+- ``manifold_order(...)`` (``wavefront``'s): the order a pass visits the manifolds in: table order for every
+  body (so the numbers of a table-order sweep), manifolds that share no body side by side so they overlap;
 - ``accumulated_iteration(...)``: one Gauss-Seidel pass over the manifolds, normals then friction, each
   normal step optionally over-relaxed;
 - ``solve_velocities(...)``: the velocity half of a step with accumulated impulses on the step's points, the
@@ -61,18 +61,11 @@ from stackx.kernel import inlined, kernel, leaf
 from stackx.models.planar.collide import collide, collide_near
 from stackx.models.planar.monitor import observe, observe_points
 from stackx.models.touch import TOUCH_GAP
+from stackx.solvers.planar.columns import (A, B, COLUMNS, CONDITIONED, DEPTH, FEATURE, K11, K12, K22, KN, KT,  # noqa: F401
+                                           LFX, LFY, LNX, LNY, LQX, LQY, MU, NX, NY, PN, PT, PX, PY, RAX, RAY,
+                                           RBX, RBY, TARGET)
+from stackx.solvers.planar.wavefront import manifold_order
 
-# ids columns
-A, B, FEATURE = 0, 1, 2
-# table columns: normal, point, depth (from collide); anchors, masses, friction, target, impulses (prepare
-# and the solve); the face normal and point in the reference body's frame and the touching corner in the
-# incident body's frame (anchor_locals)
-NX, NY, PX, PY, DEPTH, RAX, RAY, RBX, RBY, KN, KT, MU, TARGET, PN, PT = range(15)
-LNX, LNY, LFX, LFY, LQX, LQY = range(15, 21)
-# on the first point of a two-point manifold (prepare): its 2 x 2 normal mass matrix K and whether K is
-# conditioned well enough for the block solve (1.0) or not (0.0): fixed for the step, so found once
-K11, K12, K22, CONDITIONED = range(21, 25)
-COLUMNS = 25
 FLIPPED = 64  # collide's features from 64 up: the reference face is on body B
 LOOSENESS = 0.05  # m a side the kept candidates' bounds are grown by (Box2D v3's B2_MAX_AABB_MARGIN)
 BLOCK_CONDITION = 1000.0  # largest condition (k11^2 / det) a two-point block is solved at (Box2D 2.x's)
@@ -524,45 +517,6 @@ def manifold_size(ids: np.ndarray, count: int, k: int) -> int:
     """How many points the manifold starting at point ``k`` has: 2 when the next point has the same two
     bodies, else 1 (``collide`` gives at most two a pair)."""
     return 2 if k + 1 < count and ids[k + 1, A] == ids[k, A] and ids[k + 1, B] == ids[k, B] else 1
-
-
-@kernel
-def manifold_order(ids: np.ndarray, count: int, bodies: int) -> np.ndarray:
-    """The first points of the table's manifolds in the order a pass visits them: for every body, the
-    manifolds that touch it come in table order, so each sees the velocities it would see in a table-order
-    sweep and the pass gives the same numbers bit for bit; between them, manifolds that share no body are
-    brought together (each manifold's **level**, one more than the latest level of its bodies, in increasing
-    level, table order within a level). A table-order sweep of a pile is one long chain, every manifold
-    waiting for the one before through a shared body; by level, consecutive visits are independent and the
-    processor overlaps them (a fifth to a quarter off a pass on a 20-row pyramid). The ground is shared by
-    none; a static box is treated like any other body, so the order stays exact however its velocities
-    turn out."""
-    latest = np.full(bodies, -1, np.int64)
-    first = np.empty(count, np.int64)
-    level = np.empty(count, np.int64)
-    manifolds, deepest = 0, -1
-    k = 0
-    while k < count:
-        a, b = ids[k, A], ids[k, B]
-        here = latest[b] + 1
-        if a >= 0:
-            here = max(here, latest[a] + 1)
-            latest[a] = here
-        latest[b] = here
-        first[manifolds], level[manifolds] = k, here
-        deepest = max(deepest, here)
-        manifolds += 1
-        k += manifold_size(ids, count, k)
-    start = np.zeros(deepest + 2, np.int64)  # a counting sort by level, table order kept within one
-    for m in range(manifolds):
-        start[level[m] + 1] += 1
-    for v in range(deepest + 1):
-        start[v + 1] += start[v]
-    order = np.empty(manifolds, np.int64)
-    for m in range(manifolds):
-        order[start[level[m]]] = first[m]
-        start[level[m]] += 1
-    return order
 
 
 @leaf

@@ -31,8 +31,9 @@ from stackx.solvers.base import Correction, LabCorrection
 from stackx.solvers.planar.base import PlanarSolver, sequential_only
 from stackx.solvers.planar.contacts import (A, B, DEPTH, KN, KT, MU, NX, NY, PN, PT, contact_workspace,
                                             correct_positions, find_contacts_near, gravity, integrate_positions,
-                                            manifold_impulse, manifold_order, manifold_size, manifold_velocity,
+                                            manifold_impulse, manifold_size, manifold_velocity,
                                             near_workspace, observe_contacts, prepare)
+from stackx.solvers.planar.wavefront import manifold_order
 
 
 class PlanarPGSParams(BaseModel):
