@@ -14,7 +14,10 @@ breaks, at the cost of one pass over the step's points, so it can run on every s
 - with velocities alone (``approach``), what a solver that keeps its impulses to itself (an engine) still
   shows: the fastest approach beyond a point's target. Friction and complementarity need the impulses.
 
-Every figure is 0 for an exact answer, and each is the largest over the step's points.
+Every figure is 0 for an exact answer, and each is the largest over the step's points. A solver's impulses
+(``stackx.solvers.planar.base.StepImpulses``) reach the step's problem by ``matched``: each point of the
+problem takes the impulses of the solver's point with the same ``(A, B, FEATURE)``, 0 where the solver had
+no such point (it applied nothing there).
 """
 
 from __future__ import annotations
@@ -33,6 +36,23 @@ def approach(problem: ContactProblem, velocity: np.ndarray) -> float:
         return 0.0
     un, _ = relative_velocities(problem, velocity)
     return float(np.maximum(problem.target - un, 0.0).max())
+
+
+def matched(keys: np.ndarray, own_keys: np.ndarray, own_pn: np.ndarray,
+            own_pt: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The impulses ``own_pn``, ``own_pt`` of the points ``own_keys`` ``(k, 3)`` at the points ``keys``
+    ``(m, 3)`` (both ``(A, B, FEATURE)``): ``(pn, pt)``, each ``(m,)``, 0 at a point ``own_keys`` lacks. Both
+    lists come from ``collide`` in the same order when the solver found the points the problem has, and are
+    then compared in one pass."""
+    if own_keys.shape == keys.shape and np.array_equal(own_keys, keys):
+        return np.asarray(own_pn, np.float64), np.asarray(own_pt, np.float64)
+    index = {(a, b, f): i for i, (a, b, f) in enumerate(own_keys.tolist())}
+    pn, pt = np.zeros(keys.shape[0]), np.zeros(keys.shape[0])
+    for j, (a, b, f) in enumerate(keys.tolist()):
+        i = index.get((a, b, f))
+        if i is not None:
+            pn[j], pt[j] = own_pn[i], own_pt[i]
+    return pn, pt
 
 
 def violations(problem: ContactProblem, pn: np.ndarray, pt: np.ndarray) -> dict[str, float]:
