@@ -15,6 +15,7 @@ import pytest
 
 from stackx.bench.criteria import Criteria
 from stackx.config.experiment import load
+from stackx.models.planar.conditions import matched
 from stackx.models.planar.error import BatchLog, RowLog, StepLog, log_step
 from stackx.models.planar.problem import ContactProblem
 from stackx.registry import solvers
@@ -210,3 +211,12 @@ def test_half_the_impulse_that_holds_a_box_shows_as_half_a_step_of_sinking() -> 
 
 def exact_params() -> Any:
     return solvers.get("planar-exact").Params(speculative=0.02)
+
+
+def test_a_point_the_solver_did_not_have_takes_no_impulse_and_one_the_problem_lacks_is_left_out() -> None:
+    keys = np.array([[-1, 0, 1], [-1, 0, 2], [0, 1, 5], [1, 2, 3]])
+    own = np.array([[-1, 0, 2], [0, 1, 4], [0, 1, 5], [1, 2, 3]])  # no (-1, 0, 1); (0, 1, 4) not in the problem
+    pn, pt = matched(keys, own, np.array([1.0, 2.0, 3.0, 4.0]), np.array([0.5, 0.25, 0.125, 0.0625]))
+    assert pn.tolist() == [0.0, 1.0, 3.0, 4.0] and pt.tolist() == [0.0, 0.5, 0.125, 0.0625]
+    same, _ = matched(keys, keys.copy(), np.arange(4.0), np.zeros(4))
+    assert same.tolist() == [0.0, 1.0, 2.0, 3.0]
