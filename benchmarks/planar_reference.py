@@ -39,6 +39,8 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from stackx.bench.plan import CASE, load_case
 from stackx.config.experiment import load
 from stackx.bench.criteria import Criteria
@@ -125,6 +127,22 @@ def measure(path: str, steps: int, solver: str, knob: int | None) -> dict[str, f
             "log_ms": 1e3 * statistics.mean(logged[1:] or logged), "own_us": 1e6 * statistics.mean(own[1:] or own)}
 
 
+def warm_up_checks() -> None:
+    """Load (or compile) the own-answer check's kernels before anything is timed, as the runner's warm-up
+    does for a solver's: the first check of a process would otherwise carry it."""
+    from stackx.models.planar.conditions import approach, matched, violations
+    from stackx.models.planar.step_problem import step_problem
+    from stackx.models.planar.state import PlanarState
+
+    one = np.array([[1.0]])
+    state = PlanarState(np.zeros((1, 1)), 0.5 * one, np.zeros((1, 1)), np.zeros((1, 1)), np.zeros((1, 1)),
+                        np.zeros((1, 1)), one, 6.0 * one, 0.5 * one, 0.5 * one, 0.5 * one)
+    problem = step_problem(state, 0, -9.8, 1 / 60, 0.02)
+    keys = np.zeros((problem.points, 3), np.int64)
+    approach(problem, problem.velocity)
+    violations(problem, *matched(keys, keys[1:], np.ones(problem.points - 1), np.zeros(problem.points - 1)))
+
+
 def bench_costs(path: str, steps: int | None) -> tuple[float, dict[str, dict[str, float]]]:
     """``stackx bench path`` (every solver, one process, the report written to a temporary folder), each run
     cut to ``steps`` (None: the config's): its wall time (s) and per run (by case and run name) the steps
@@ -169,6 +187,7 @@ def bench_costs(path: str, steps: int | None) -> tuple[float, dict[str, dict[str
         finally:
             spent[(id(log), b)]["own"] += time.perf_counter() - t0
 
+    warm_up_checks()
     StepLog.batch = batch  # type: ignore[method-assign]
     planar_log.log_step, planar_log.check_own = log_step, check_own  # type: ignore[assignment]
     step_problem.ReferenceStep._solve = solve  # type: ignore[method-assign]

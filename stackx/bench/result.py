@@ -211,7 +211,8 @@ def shown(rec: Record) -> dict[str, str]:
     figures = {"error": number(e.get("rms")), "error_max": number(e.get("max")),
                "worst_step": number(e.get("worst_step"), "d"), "reach": number(m.get("reach"))}
     worst = e.get("violation_worst")
-    figures["violation"] = "-" if worst is None else f"{number(e['violation_max'][worst])} {worst}"
+    largest = None if worst is None else e["violation_max"][worst]
+    figures["violation"] = "-" if worst is None else number(largest) + (f" {worst}" if largest else "")
     figures["approach"] = number(e.get("approach_max"))
     if e.get("unsolved"):  # the reference could not solve some steps: the error leaves them out, and says so
         skipped = f" ({e['unsolved']} step{'s' if e['unsolved'] > 1 else ''} unsolved)"

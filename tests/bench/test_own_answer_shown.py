@@ -18,6 +18,12 @@ def test_the_largest_violation_is_shown_with_its_condition_and_the_approach_besi
     assert (f["violation"], f["approach"]) == ("0.5 complementarity", "0.125")
 
 
+def test_an_answer_that_breaks_nothing_names_no_condition() -> None:
+    f = shown(_record({"rms": 0.0, "violation_max": dict.fromkeys(("penetration", "pull"), 0.0),
+                       "violation_worst": "penetration", "approach_max": 0.0}))
+    assert (f["violation"], f["approach"]) == ("0", "0")
+
+
 def test_without_impulses_only_the_approach_is_shown() -> None:
     f = shown(_record({"rms": 0.1, "violation_max": None, "violation_worst": None, "approach_max": 0.0625}))
     assert (f["violation"], f["approach"]) == ("-", "0.0625")
