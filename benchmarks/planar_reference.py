@@ -24,7 +24,10 @@ bench takes about ``config steps / N`` times as long on a pile that stays as bus
 wall time and the step log's share of it, then per run its steps and, per step, the reference solve
 (``ref ms``), the step log's whole cost (``log ms``: the run's own reference solves and checks, and its
 share of the batch's monitors) and the check of its own answer (``own us``: velocities and, for a solver
-that exposes them, impulses; ``stackx.models.planar.error.check_own``).
+that exposes them, impulses; ``stackx.models.planar.error.check_own``). Measured on 2 shared cores with
+``--bench configs/planar/pyramid-10.yaml --steps 30`` (21 runs): 256 s wall, 98% of it the step log, nearly
+all of that the reference solves (from 0.9 ms a step on planar-exact's path to 2.3 s on planar-xpbd's at 4
+substeps); the own-answer check 0.05 to 0.4 ms a step.
 """
 
 from __future__ import annotations
