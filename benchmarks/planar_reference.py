@@ -12,19 +12,37 @@ run: the median and the largest time per reference solve (failed ones included; 
 own solve too) and their sum (what the run's reference solves add to a bench), Newton rounds and sweeps per
 solved step, and the steps the reference could not solve of those the step log watched, with the run's RMS
 error; the step log's whole cost per step (``log ms``: the reference solve, the monitors and the check of
-the solver's own answer) and, of it, that check alone (``own us``: ``stackx.models.planar.conditions``); per pyramid, the ratio of the median solve on the sagging path to that on the held path, both measured
-in this one run. ``--proximal D`` solves with another proximal weight
+the solver's own answer) and, of it, that check alone (``own us``: ``stackx.models.planar.error.check_own``,
+from velocities and, for a solver that exposes them, impulses); per pyramid, the ratio of the median solve on
+the sagging path to that on the held path, both measured in this one run. ``--proximal D`` solves with another proximal weight
 (``stackx.models.planar.reference.PROXIMAL``), to see what it trades.
+
+``--bench CONFIG`` instead times a whole ``stackx bench CONFIG`` end to end in this one process (every
+planar solver at every knob value, the timings, the report written to a temporary folder), with every run's
+steps cut to ``--steps`` when given (``--set steps=N``: a bench's cost grows with its steps, so the full
+bench takes about ``config steps / N`` times as long on a pile that stays as busy). Printed: the bench's
+wall time and the step log's share of it, then per run its steps and, per step, the reference solve
+(``ref ms``), the step log's whole cost (``log ms``: the run's own reference solves and checks, and its
+share of the batch's monitors) and the check of its own answer (``own us``: velocities and, for a solver
+that exposes them, impulses; ``stackx.models.planar.error.check_own``). Measured on 2 shared cores with
+``--bench configs/planar/pyramid-10.yaml --steps 30`` (21 runs): 256 s wall, 98% of it the step log, nearly
+all of that the reference solves (from 0.9 ms a step on planar-exact's path to 2.3 s on planar-xpbd's at 4
+substeps); the own-answer check 0.05 to 0.4 ms a step.
 """
 
 from __future__ import annotations
 
 import argparse
+import os
 import statistics
 import tempfile
 import time
+from collections import defaultdict
 from dataclasses import replace
 from pathlib import Path
+from typing import Any
+
+import numpy as np
 
 from stackx.bench.plan import CASE, load_case
 from stackx.config.experiment import load
@@ -73,7 +91,7 @@ def measure(path: str, steps: int, solver: str, knob: int | None) -> dict[str, f
 
     logged: list[float] = []
     own: list[float] = []
-    plain_log, plain_approach = planar_log.log_step, planar_log.approach
+    plain_log, plain_check = planar_log.log_step, planar_log.check_own
 
     def timed_log(*args: object) -> None:
         t0 = time.perf_counter()
@@ -82,15 +100,15 @@ def measure(path: str, steps: int, solver: str, knob: int | None) -> dict[str, f
         finally:
             logged.append(time.perf_counter() - t0)
 
-    def timed_approach(*args: object) -> float:
+    def timed_check(*args: object) -> None:
         t0 = time.perf_counter()
         try:
-            return plain_approach(*args)  # type: ignore[arg-type]
+            plain_check(*args)  # type: ignore[arg-type]
         finally:
             own.append(time.perf_counter() - t0)
 
     step_problem.ReferenceStep._solve = timed  # type: ignore[method-assign]
-    planar_log.log_step, planar_log.approach = timed_log, timed_approach  # type: ignore[assignment]
+    planar_log.log_step, planar_log.check_own = timed_log, timed_check  # type: ignore[assignment]
     try:
         log = StepLog(Criteria())
         t0 = time.perf_counter()
@@ -99,7 +117,7 @@ def measure(path: str, steps: int, solver: str, knob: int | None) -> dict[str, f
         total = time.perf_counter() - t0
     finally:
         step_problem.ReferenceStep._solve = plain  # type: ignore[method-assign]
-        planar_log.log_step, planar_log.approach = plain_log, plain_approach  # type: ignore[assignment]
+        planar_log.log_step, planar_log.check_own = plain_log, plain_check  # type: ignore[assignment]
     (row,) = log.rows.values()
     timed_solves = solves[1:] or solves  # the first includes loading compiled code
     error = row.error()
@@ -112,6 +130,107 @@ def measure(path: str, steps: int, solver: str, knob: int | None) -> dict[str, f
             "log_ms": 1e3 * statistics.mean(logged[1:] or logged), "own_us": 1e6 * statistics.mean(own[1:] or own)}
 
 
+def warm_up_checks() -> None:
+    """Load (or compile) the own-answer check's kernels before anything is timed, as the runner's warm-up
+    does for a solver's: the first check of a process would otherwise carry it."""
+    from stackx.models.planar.conditions import approach, matched, violations
+    from stackx.models.planar.step_problem import step_problem
+    from stackx.models.planar.state import PlanarState
+
+    one = np.array([[1.0]])
+    state = PlanarState(np.zeros((1, 1)), 0.5 * one, np.zeros((1, 1)), np.zeros((1, 1)), np.zeros((1, 1)),
+                        np.zeros((1, 1)), one, 6.0 * one, 0.5 * one, 0.5 * one, 0.5 * one)
+    problem = step_problem(state, 0, -9.8, 1 / 60, 0.02)
+    keys = np.zeros((problem.points, 3), np.int64)
+    approach(problem, problem.velocity)
+    violations(problem, *matched(keys, keys[1:], np.ones(problem.points - 1), np.zeros(problem.points - 1)))
+
+
+def bench_costs(path: str, steps: int | None) -> tuple[float, dict[str, dict[str, float]]]:
+    """``stackx bench path`` (every solver, one process, the report written to a temporary folder), each run
+    cut to ``steps`` (None: the config's): its wall time (s) and per run (by case and run name) the steps
+    logged and the seconds its reference solves, its step log and its own-answer checks took."""
+    from stackx.bench.command import bench
+
+    os.environ.setdefault("STACKX_JIT", "1")  # as the stackx bench command sets it
+    names: dict[int, tuple[Any, list[str]]] = {}  # id(batch log) -> (the batch log, kept alive; its run names)
+    spent: dict[tuple[int, int], dict[str, float]] = defaultdict(lambda: defaultdict(float))  # (batch, row)
+    batch_log: dict[int, float] = defaultdict(float)  # step log seconds per batch
+    current: list[Any] = [None]  # the batch log whose step is being logged
+    plain_batch, plain_log, plain_check = StepLog.batch, planar_log.log_step, planar_log.check_own
+    plain_solve = step_problem.ReferenceStep._solve
+
+    def batch(self: StepLog, runs: list[Any], solver: object = None) -> Any:
+        on_step = plain_batch(self, runs, solver)
+        log = self.rows[runs[0].name].log
+        names[id(log)] = (log, [r.name for r in runs])
+        return on_step
+
+    def log_step(log: Any, *args: Any, **kwargs: Any) -> None:
+        current[0] = log
+        t0 = time.perf_counter()
+        try:
+            plain_log(log, *args, **kwargs)
+        finally:
+            batch_log[id(log)] += time.perf_counter() - t0
+            current[0] = None
+
+    def solve(self: Any, b: int, *args: Any) -> Any:
+        t0 = time.perf_counter()
+        try:
+            return plain_solve(self, b, *args)
+        finally:
+            if current[0] is not None:  # the step log's solves, not planar-exact's own
+                spent[(id(current[0]), b)]["reference"] += time.perf_counter() - t0
+
+    def check_own(log: Any, b: int, *args: Any) -> None:
+        t0 = time.perf_counter()
+        try:
+            plain_check(log, b, *args)
+        finally:
+            spent[(id(log), b)]["own"] += time.perf_counter() - t0
+
+    warm_up_checks()
+    StepLog.batch = batch  # type: ignore[method-assign]
+    planar_log.log_step, planar_log.check_own = log_step, check_own  # type: ignore[assignment]
+    step_problem.ReferenceStep._solve = solve  # type: ignore[method-assign]
+    try:
+        with tempfile.TemporaryDirectory() as folder:
+            t0 = time.perf_counter()
+            results = bench([path], None, Path(folder) / "bench", quiet=True,
+                            sets=None if steps is None else [f"steps={steps}"])
+            wall = time.perf_counter() - t0
+    finally:
+        StepLog.batch = plain_batch  # type: ignore[method-assign]
+        planar_log.log_step, planar_log.check_own = plain_log, plain_check  # type: ignore[assignment]
+        step_problem.ReferenceStep._solve = plain_solve  # type: ignore[method-assign]
+    case = results[0].name if results else Path(path).stem
+    runs: dict[str, dict[str, float]] = defaultdict(lambda: defaultdict(float))
+    for key, (log, run_names) in names.items():
+        rest = batch_log[key] - sum(v for (k, _), row in spent.items() if k == key for v in row.values())
+        for b, name in enumerate(run_names):
+            row, run = spent[(key, b)], runs[f"{case} {name}"]
+            run["steps"] += log.steps
+            run["reference"] += row["reference"]
+            run["own"] += row["own"]
+            run["log"] += row["reference"] + row["own"] + rest / len(run_names)
+    return wall, runs
+
+
+def bench_main(path: str, steps: int | None) -> None:
+    """Print ``bench_costs``: the wall time, then a line per run."""
+    wall, runs = bench_costs(path, steps)
+    logged = sum(r["log"] for r in runs.values())
+    cap = "" if steps is None else f" --set steps={steps}"
+    print(f"stackx bench {path}{cap}: {wall:.1f} s wall, of which the step log {logged:.1f} s "
+          f"({100 * logged / wall:.0f}%), {len(runs)} runs")
+    print(f"{'run':<56}{'steps':>7}{'ref ms':>9}{'log ms':>9}{'own us':>9}")
+    for name, r in runs.items():
+        n = max(r["steps"], 1)
+        print(f"{name:<56}{r['steps']:>7.0f}{1e3 * r['reference'] / n:>9.2f}{1e3 * r['log'] / n:>9.2f}"
+              f"{1e6 * r['own'] / n:>9.0f}")
+
+
 def line(name: str, m: dict[str, float]) -> str:
     rms = "-" if m["rms"] is None else f"{m['rms']:.4g}"
     return (f"{name:<52}{m['median_ms']:>10.1f}{m['max_ms']:>10.1f}{m['total_s']:>9.1f}{m['rounds']:>8.1f}"
@@ -120,14 +239,21 @@ def line(name: str, m: dict[str, float]) -> str:
 
 def main() -> None:
     parser = argparse.ArgumentParser(prog="python -m benchmarks.planar_reference", description=__doc__)
-    parser.add_argument("--steps", type=int, default=60, help="steps per run")
+    parser.add_argument("--steps", type=int, default=None,
+                        help="steps per run (default 60; with --bench, the config's own)")
     parser.add_argument("--rows", type=int, nargs="+", default=[10, 20], help="pyramid sizes")
     parser.add_argument("--run", nargs=3, action="append", metavar=("CONFIG", "SOLVER", "KNOB"),
                         help="a run to measure instead of the pyramids, as the bench runs it (KNOB '-': the config's)")
     parser.add_argument("--proximal", type=float, default=reference.PROXIMAL,
                         help="the reference's proximal weight d (what it trades: reference.py's module text)")
+    parser.add_argument("--bench", metavar="CONFIG",
+                        help="time a whole 'stackx bench CONFIG' in this process instead, each run cut to --steps")
     args = parser.parse_args()
     reference.PROXIMAL = args.proximal
+    if args.bench:
+        bench_main(args.bench, args.steps)
+        return
+    args.steps = 60 if args.steps is None else args.steps
     print(f"{'run':<52}{'ms/solve':>10}{'max ms':>10}{'total s':>9}{'rounds':>8}{'sweeps':>8}{'unsolved':>12}"
           f"{'rms m/s':>10}{'log ms':>9}{'own us':>8}")
     if args.run:

@@ -92,6 +92,7 @@ def _timeline_html(results: list[CaseResult]) -> str:
 
 
 HEAD = ["solver", "knob", "µs per step (+spread)", "µs per call (+spread)", "error RMS (m/s)", "error max (m/s)", "worst step",
+        "own answer: largest violation (m/s)", "own answer: fastest approach (m/s)",
         "final depth (m)", "final gap (m)", "peak depth (m)", "reach (× half-height)", "top rest error (m)",
         "RMS motion (m/s)", "top p2p (m)", "launch (m/s)", "recovered at (step)", "settled at (step)", *NAMES]
 
@@ -103,7 +104,8 @@ def _records_html(res: CaseResult) -> str:
         line = [f'<td class="l">{swatch(r.solver)}</td>', td(f"{r.knob} {r.value}" if r.knob else "-", "l"),
                 td(step_time(r), "warn" if unstable(r) else "", r.timing.get("unstable") or None),
                 td(call_time(r), "warn" if unstable(r) else "", r.timing.get("unstable") or None),
-                td(f["error"] if not r.reference else "reference"), td(f["error_max"]), td(f["worst_step"])]
+                td(f["error"] if not r.reference else "reference"), td(f["error_max"]), td(f["worst_step"]),
+                td(f["violation"]), td(f["approach"])]
         line += [td(f[k]) for k in ("max_depth", "max_gap", "peak_depth", "reach", "top_rest_error", "rms_motion",
                                     "top_p2p", "launch", "steps_to_recover", "steps_to_settle")]
         for name in NAMES:

@@ -47,6 +47,24 @@ DEFINITIONS = {
              "planar model the reference may fail to solve a step to 1e-10 m/s (it says so rather than guess): "
              "the error then leaves those steps out, says how many, and the run is drawn in no speed-against-"
              "error plot, front or winner.",
+    "violation": "(planar) the solver's own answer checked against each step's contact conditions, needing no "
+                 "reference: on the step problem the error's reference sets, the impulses the solver's step "
+                 "applied (a single velocity solve's accumulated impulses; the soft step's summed over its "
+                 "substeps, which give its stored velocities on that problem exactly) give the largest violation "
+                 "over points and steps of each condition, in m/s: penetration (a point approaching faster than "
+                 "its target), pull (a negative normal impulse, as the speed it would give the point alone), "
+                 "complementarity (a point pushing while it separates: the smaller of the two), box (friction "
+                 "beyond mu times the normal impulse) and dissipation (a point slipping while its friction is "
+                 "inside the box, or friction at the bound not opposing the slip). Shown: the largest, with its "
+                 "condition; bench.json keeps each condition's (violation_max), the RMS over steps of each "
+                 "step's worst (violation_rms) and the steps checked. 0 for an exact answer. A soft or "
+                 "substepped contact reads as violating where it does on purpose what one rigid step does not "
+                 "(pushing an overlap apart). '-' for a solver whose velocities no impulses on the step's "
+                 "problem give (XPBD's come from positions) and for engines: see approach",
+    "approach": "(planar) from the solver's stored velocities alone, for every solver and engine: the fastest "
+                "any point approaches beyond its target on the step's problem (sinks faster than the step "
+                "allows), largest over the run (approach_max; the RMS over steps is approach_rms), m/s; 0 for an "
+                "exact answer",
     "steps_to_recover": "the step from which every contact overlaps by at most criteria.depth_factor x "
                         "criteria.slop to the end of the run; - when the run ends overlapping",
     "steps_to_settle": "the step from which every contact is within that depth and that gap and the RMS motion "
@@ -186,12 +204,16 @@ def shown(rec: Record) -> dict[str, str]:
     """A record's figures as a table shows them: '-' where there is none, and none of a run that broke (a
     crushed run keeps only its reach, which says by how much)."""
     if rec.broke:
-        figures = {k: "-" for k in ("error", "error_max", "worst_step", *MEASURES)}
+        figures = {k: "-" for k in ("error", "error_max", "worst_step", "violation", "approach", *MEASURES)}
         figures["reach"] = "-" if rec.blew_up else number(rec.measures.get("reach"))
         return figures
     m, e = rec.measures, rec.error
     figures = {"error": number(e.get("rms")), "error_max": number(e.get("max")),
                "worst_step": number(e.get("worst_step"), "d"), "reach": number(m.get("reach"))}
+    worst = e.get("violation_worst")
+    largest = None if worst is None else e["violation_max"][worst]
+    figures["violation"] = "-" if worst is None else number(largest) + (f" {worst}" if largest else "")
+    figures["approach"] = number(e.get("approach_max"))
     if e.get("unsolved"):  # the reference could not solve some steps: the error leaves them out, and says so
         skipped = f" ({e['unsolved']} step{'s' if e['unsolved'] > 1 else ''} unsolved)"
         figures["error"] += skipped

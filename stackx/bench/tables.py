@@ -27,13 +27,13 @@ def case_table(res: CaseResult) -> Table:
     """Every run of one case at the case's own settings, by solver and knob value."""
     run = res.case.run
     table = Table(title=f"{res.name}: {run.scene.size()} boxes, {run.steps} steps", title_justify="left")
-    for col in ("solver", "knob", "µs/step", "µs/call", "error", "depth", "gap", "top err", "motion", "launch",
-                *NAMES):
+    for col in ("solver", "knob", "µs/step", "µs/call", "error", "violation", "approach", "depth", "gap", "top err",
+                "motion", "launch", *NAMES):
         table.add_column(col, justify="left" if col in ("solver", "knob") else "right", overflow="fold")
     for r in case_records(res.records):
         f = shown(r)
         knob = f"{_KNOB.get(r.knob, r.knob)} {r.value}" if r.knob else "-"
-        row = [r.solver, knob, step_time(r), call_time(r), f["error"]]
+        row = [r.solver, knob, step_time(r), call_time(r), f["error"], f["violation"], f["approach"]]
         row += [f[k] for k in ("max_depth", "max_gap", "top_rest_error", "rms_motion", "launch")]
         for name in NAMES:
             v = r.criteria[name]

@@ -129,8 +129,8 @@ class SeriesLog:
         self.inner = inner
         self.rows: dict[str, tuple[_Batch, int]] = {}
 
-    def batch(self, runs: list[RunSpec]) -> OnStep:
-        inner = self.inner.batch(runs) if self.inner is not None else None
+    def batch(self, runs: list[RunSpec], solver: Any = None) -> OnStep:
+        inner = self.inner.batch(runs, solver) if self.inner is not None else None
         kept = sample_steps(runs[0].steps)
         found = _Batch(np.array([r.dt for r in runs]))
         self.rows.update((r.name, (found, b)) for b, r in enumerate(runs))

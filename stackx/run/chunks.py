@@ -206,7 +206,7 @@ class _Catch:
         self.before: Any = None
         self.after: Any = None
 
-    def batch(self, runs: list[RunSpec]) -> Callable[[int, Any, Any], None]:
+    def batch(self, runs: list[RunSpec], solver: Any = None) -> Callable[[int, Any, Any], None]:
         def seen(k: int, before: Any, after: Any) -> None:
             if k == self.k:
                 self.before, self.after = before, after.copy()

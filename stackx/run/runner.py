@@ -33,9 +33,10 @@ OnStep = Callable[[int, Any, Any], None]
 
 
 class StepObserver(Protocol):
-    """Watches every step of every batch: ``batch(runs)`` gives the callback for the batch of ``runs``."""
+    """Watches every step of every batch: ``batch(runs, solver)`` gives the callback for the batch of ``runs``
+    stepped by ``solver`` (whose state after each step an observer may read, e.g. the impulses it applied)."""
 
-    def batch(self, runs: list[RunSpec]) -> OnStep: ...
+    def batch(self, runs: list[RunSpec], solver: Any) -> OnStep: ...
 
 
 def _batch_key(run: RunSpec) -> tuple[object, ...]:
@@ -80,7 +81,7 @@ def _run_batch(spec: Plan, runs: list[RunSpec], progress: Progress | None,
     state, solver = _setup(spec, runs)
     if compiled:
         _warm_up(state, solver)
-    on_step = observer.batch(runs) if observer is not None else None
+    on_step = observer.batch(runs, solver) if observer is not None else None
     watch = Watch(spec.file, [r.name for r in runs], solver, model, runs[0].steps, spec.limits.max_speed)
     watch.start(state)
     steps = runs[0].steps

@@ -37,8 +37,12 @@ def test_bench_runs_planar_cases_end_to_end(cli: Cli, tmp_path: Path) -> None:
         assert exact["reference"] and exact["passed"]
         assert exact["error"]["rms"] < 1e-9  # measured every step against the reference: itself
         assert all(r["error"]["steps"] == 30 for r in case["records"])
+        # every step's own answer checked beside the error: the exact one breaks no condition
+        assert all(r["error"]["violation_steps"] == 30 for r in case["records"])
+        assert max(exact["error"]["violation_max"].values()) < 1e-9 and exact["error"]["approach_max"] < 1e-9
         assert exact["measures"]["slide_error"] < 1e-6
         assert doc["matrix"]["planar-exact"][case["name"]]["passed"]
     page = (tmp_path / "report.html").read_text()
     assert "ramp-stick" in page and "ramp-slide" in page and "not judged" in page
     assert "drift_x" in page and "slide_error" in page  # the definitions printed with the report
+    assert "own answer: largest violation (m/s)" in page and "complementarity" in page

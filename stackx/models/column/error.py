@@ -123,7 +123,7 @@ class StepLog:
         self.criteria = criteria
         self.rows: dict[str, RowLog] = {}
 
-    def batch(self, runs: list[RunSpec]) -> OnStep:
+    def batch(self, runs: list[RunSpec], solver: object = None) -> OnStep:
         log = BatchLog(len(runs), runs[0].scene.size())
         self.rows.update((r.name, RowLog(log, b)) for b, r in enumerate(runs))
         g = np.array([r.gravity for r in runs], dtype=np.float64)

@@ -14,11 +14,22 @@ step beside it. The reference starts each step from the impulses it found for th
 before, so a run's steps cost it few Newton rounds.
 
 **Its own answer's conditions.** Beside the error, which needs the reference, each step also gets what the
-solver's answer breaks on its own (``stackx.models.planar.conditions``): from the velocities it stored, the
-fastest approach beyond any point's target (a point sinking faster than the step allows), on the same
-step problem. Its largest value over the run (``approach_max``) and the RMS of the per-step values
-(``approach_rms``), m/s, are in the run's error beside ``rms`` and ``max``; 0 for an exact answer. It
-costs one pass over the step's points.
+solver's answer breaks on its own (``stackx.models.planar.conditions``), on the same step problem, whether or
+not the reference solves it:
+
+- from the velocities it stored, for every solver (engines included), the fastest approach beyond any
+  point's target (a point sinking faster than the step allows): its largest value over the run
+  (``approach_max``) and the RMS of the per-step values (``approach_rms``), m/s;
+- from the impulses its step applied, for a solver that exposes them
+  (``stackx.solvers.planar.base.PlanarSolver.step_impulses``, matched to the problem's points by
+  ``(A, B, FEATURE)``), each condition's violation (``conditions.violations``: penetration, pull,
+  complementarity, Coulomb's box, maximal dissipation): per condition its largest value over the run
+  (``violation_max``, a dict by condition), the condition with the largest (``violation_worst``), the RMS
+  over the checked steps of each step's worst condition (``violation_rms``), and how many steps were
+  checked (``violation_steps``); None for a solver that does not expose them.
+
+All are in the run's error beside ``rms`` and ``max``, 0 for an exact answer, and each costs a pass over
+the step's points (``python3 -m benchmarks.planar_reference``'s ``own us``).
 
 A step the reference cannot solve (it says so rather than return a wrong answer) is not measured; how many
 there were is reported as ``unsolved`` beside the error, so a gap in the measurement is never silent.
@@ -42,12 +53,13 @@ import numpy as np
 
 from stackx.bench.criteria import Criteria
 from stackx.models import steplog
-from stackx.models.planar.conditions import approach
+from stackx.models.planar.conditions import CONDITIONS, approach, matched, violations
 from stackx.models.planar.measures import half_diagonal, max_depth
 from stackx.models.planar.reference import ReferenceFailure
 from stackx.models.planar.state import PlanarState
 from stackx.models.planar.step_problem import ReferenceStep
 from stackx.run.runner import OnStep
+from stackx.solvers.planar.base import StepImpulses
 from stackx.solvers.planar.reach import reach_in_step
 from stackx.config.spec import RunSpec
 
@@ -65,6 +77,9 @@ class BatchLog:
         self.worst = np.full(rows, -1.0)
         self.approach_max = np.zeros(rows)  # fastest approach beyond a target, over the steps (m/s)
         self.approach_sumsq = np.zeros(rows)  # sum over steps of each step's fastest approach squared
+        self.violation_max = np.zeros((rows, len(CONDITIONS)))  # each condition's largest violation (m/s)
+        self.violation_sumsq = np.zeros(rows)  # sum over checked steps of each step's worst violation squared
+        self.checked = np.zeros(rows, dtype=np.int64)  # steps whose impulses were checked
         self.worst_step = np.full(rows, -1, dtype=np.int64)
         self.crushed_at = np.full(rows, -1, dtype=np.int64)
         self.last_overlap = np.full(rows, -1, dtype=np.int64)  # last step after which a contact overlapped too much
@@ -79,9 +94,15 @@ class RowLog(steplog.RowLog):
     def error(self) -> dict[str, Any]:
         log, b = self.log, self.b
         steps = log.measured[b] + log.unsolved[b]
+        checked = int(log.checked[b])
+        largest = dict(zip(CONDITIONS, map(float, log.violation_max[b])))
         return {**super().error(), "unsolved": int(log.unsolved[b]),
                 "approach_max": float(log.approach_max[b]) if steps else None,
-                "approach_rms": float(np.sqrt(log.approach_sumsq[b] / steps)) if steps else None}
+                "approach_rms": float(np.sqrt(log.approach_sumsq[b] / steps)) if steps else None,
+                "violation_max": largest if checked else None,
+                "violation_worst": max(CONDITIONS, key=largest.__getitem__) if checked else None,
+                "violation_rms": float(np.sqrt(log.violation_sumsq[b] / checked)) if checked else None,
+                "violation_steps": checked}
 
 
 def box_speeds(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, radius: np.ndarray) -> np.ndarray:
@@ -89,9 +110,28 @@ def box_speeds(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, radius: np.ndarray
     return np.sqrt(vx * vx + vy * vy + (radius * w) ** 2)
 
 
+def check_own(log: BatchLog, b: int, after: PlanarState, own: StepImpulses | None) -> None:
+    """Row ``b``'s own answer against the conditions of the step problem the reference just set: from its
+    stored velocities always, from its impulses ``own`` when it gave them (see the module text)."""
+    problem = log.reference.problem
+    assert problem is not None
+    fastest = approach(problem, np.stack([after.vx[b], after.vy[b], after.w[b]], axis=1))
+    log.approach_max[b] = max(log.approach_max[b], fastest)
+    log.approach_sumsq[b] += fastest * fastest
+    if own is None:
+        return
+    pn, pt = matched(log.reference.ids[:problem.points], own.keys, own.pn, own.pt)
+    found = np.array(list(violations(problem, pn, pt).values()))
+    np.maximum(log.violation_max[b], found, out=log.violation_max[b])
+    log.violation_sumsq[b] += float(found.max()) ** 2
+    log.checked[b] += 1
+
+
 def log_step(log: BatchLog, k: int, before: PlanarState, after: PlanarState, g: np.ndarray, dt: np.ndarray,
-             speculative: np.ndarray, criteria: Criteria, reaches: np.ndarray | None = None) -> None:
-    """Log step ``k`` of every batch row, from ``before`` to ``after`` (see the module text)."""
+             speculative: np.ndarray, criteria: Criteria, reaches: np.ndarray | None = None,
+             impulses: list[StepImpulses | None] | None = None) -> None:
+    """Log step ``k`` of every batch row, from ``before`` to ``after`` (see the module text); ``impulses``:
+    per row, what the solver's step applied (None: not exposed)."""
     radius = half_diagonal(after)
     for b in range(after.batch):
         moving = after.inv_mass[b] > 0.0
@@ -118,10 +158,7 @@ def log_step(log: BatchLog, k: int, before: PlanarState, after: PlanarState, g: 
             continue
         finally:
             if log.reference.problem is not None:
-                own = np.stack([after.vx[b], after.vy[b], after.w[b]], axis=1)
-                fastest = approach(log.reference.problem, own)
-                log.approach_max[b] = max(log.approach_max[b], fastest)
-                log.approach_sumsq[b] += fastest * fastest
+                check_own(log, b, after, None if impulses is None else impulses[b])
         v = found.velocity
         diff = box_speeds(after.vx[b] - v[:, 0], after.vy[b] - v[:, 1], after.w[b] - v[:, 2], radius[b])[moving]
         log.sumsq[b] += float(np.sum(diff * diff))
@@ -143,19 +180,21 @@ class StepLog:
         self.criteria = criteria
         self.rows: dict[str, RowLog] = {}
 
-    def batch(self, runs: list[RunSpec]) -> OnStep:
+    def batch(self, runs: list[RunSpec], solver: object = None) -> OnStep:
         log = BatchLog(len(runs), runs[0].scene.size())
         self.rows.update((r.name, RowLog(log, b)) for b, r in enumerate(runs))
         g = np.array([r.gravity for r in runs], dtype=np.float64)
         dt = np.array([r.dt for r in runs], dtype=np.float64)
         speculative = np.array([float(getattr(r.solver_params, "speculative", 0.0)) for r in runs])
         reaches = np.array([bool(getattr(r.solver_cls, "speculative_reach", False)) for r in runs])
+        exposed = getattr(solver, "step_impulses", None)  # planar solvers have it; engines do not
 
         def on_step(k: int, before: PlanarState, after: PlanarState) -> None:
             log.steps = k + 1
             if after.bodies != log.bodies:  # a scene event took a box out: the remembered points name old indices
                 log.bodies = after.bodies
                 log.reference = ReferenceStep(after.batch, after.bodies)
-            log_step(log, k, before, after, g, dt, speculative, self.criteria, reaches)
+            impulses = None if exposed is None else [exposed(b) for b in range(after.batch)]
+            log_step(log, k, before, after, g, dt, speculative, self.criteria, reaches, impulses)
 
         return on_step

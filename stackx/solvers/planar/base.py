@@ -1,8 +1,18 @@
-"""What the planar solvers share beyond their stages: the model they step, the lab's correction knob, and the
-impulses carried between steps for warm starting."""
+"""What the planar solvers share beyond their stages: the model they step, the lab's correction knob, the
+impulses carried between steps for warm starting, and the impulses a step applied, shown to the bench.
+
+**A step's own answer.** ``PlanarSolver.step_impulses(b)`` gives the impulses row ``b``'s last step applied
+at each contact point (``StepImpulses``), keyed by ``(A, B, FEATURE)`` as the contact table keys them, so
+the bench can check them against the step's contact conditions (``stackx.models.planar.conditions``)
+without a reference. What "applied" means is each solver's to say: for a solver with one velocity solve a
+step, that solve's accumulated impulses; for one that takes substeps at fixed anchors, their sum over the
+substeps. None (the default) says the solver has no impulses that give its velocities (XPBD, engines): the
+bench then checks what velocities alone show.
+"""
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Any, ClassVar
 
 import numpy as np
@@ -21,6 +31,17 @@ def sequential_only(correction: Correction | None) -> Correction | None:
     return correction
 
 
+@dataclass(frozen=True)
+class StepImpulses:
+    """The impulses one step of one world applied per contact point: ``keys`` ``(m, 3)`` the points'
+    ``(A, B, FEATURE)`` (``contacts``' ids columns), ``pn``, ``pt`` ``(m,)`` the normal and tangent impulses
+    (N s) along the point's normal and tangent ``t = (-ny, nx)``."""
+
+    keys: np.ndarray
+    pn: np.ndarray
+    pt: np.ndarray
+
+
 class PlanarSolver(Solver):
     """Base of the planar solvers: they step ``PlanarState``s."""
 
@@ -35,9 +56,14 @@ class PlanarSolver(Solver):
     def remove_box(self, state: PlanarState, box: int) -> None:
         """Nothing to forget: a solver without memory between steps."""
 
+    def step_impulses(self, b: int) -> StepImpulses | None:
+        """The impulses row ``b``'s last step applied (see the module text); None: not exposed."""
+        return None
+
 
 class PlanarMemorySolver(PlanarSolver):
-    """A planar solver that carries each contact point's impulses into the next step (warm start).
+    """A planar solver that keeps each contact point's impulses at the end of its last step: what a warm
+    started solver starts the next step from, and (``step_impulses``) the step's own answer.
 
     Per batch row: ``keys`` ``(room, 3)``, the ``(A, B, FEATURE)`` of the points of the last step in
     ``collide``'s order, ``carried`` ``(room, 2)`` their normal and tangent impulses, and ``held`` how many
@@ -60,6 +86,16 @@ class PlanarMemorySolver(PlanarSolver):
             self.held = np.zeros(state.batch, np.int64)
         assert self.carried is not None and self.held is not None
         return self.keys, self.carried, self.held
+
+    def step_impulses(self, b: int) -> StepImpulses | None:
+        """The impulses the memory holds for row ``b``: the last velocity solve's accumulated totals. None
+        before the first step, and when the memory is full (points past its room were applied but not kept,
+        so the answer would be incomplete)."""
+        if self.keys is None or self.held is None or self.held[b] >= self.keys.shape[1]:
+            return None
+        assert self.carried is not None
+        n = int(self.held[b])
+        return StepImpulses(self.keys[b, :n].copy(), self.carried[b, :n, 0].copy(), self.carried[b, :n, 1].copy())
 
     def remove_box(self, state: PlanarState, box: int) -> None:
         """Forget the points of box ``box`` and renumber the boxes after it, keeping every other point's

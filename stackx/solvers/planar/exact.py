@@ -34,7 +34,7 @@ from stackx.registry import solvers
 from stackx.solvers.base import Correction, LabCorrection
 from stackx.solvers.contacts import speculative_field
 from stackx.solvers.planar.contacts import contact_workspace, correct_positions, find_contacts, integrate_positions
-from stackx.solvers.planar.base import PlanarSolver, sequential_only
+from stackx.solvers.planar.base import PlanarSolver, StepImpulses, sequential_only
 
 
 class PlanarExactParams(BaseModel):
@@ -103,6 +103,15 @@ class PlanarExact(PlanarSolver):
                                          s.hx[b], s.hy[b], self.dt[b], self.corrects[b], self.slop[b],
                                          self.percent[b], ids, table, shift, *s.monitors(), b)
             self.steps += 1
+
+    def step_impulses(self, b: int) -> StepImpulses | None:
+        """The impulses of row ``b``'s last solve (on a step it could not solve, the closest it found); None
+        before the first step."""
+        ref = self.reference
+        if ref is None:
+            return None
+        n = int(ref.held[b])
+        return StepImpulses(ref.keys[b][:n].copy(), ref.carried[b][:n, 0].copy(), ref.carried[b][:n, 1].copy())
 
     def remove_box(self, state: PlanarState, box: int) -> None:
         """The remembered points name bodies by index, which the removal shifts: start again from zero."""

@@ -28,11 +28,11 @@ from stackx.models.planar.monitor import contact_room
 from stackx.models.planar.state import PlanarState
 from stackx.registry import solvers
 from stackx.solvers.base import Correction, LabCorrection
-from stackx.solvers.planar.base import PlanarSolver, sequential_only
+from stackx.solvers.planar.base import PlanarMemorySolver, sequential_only
 from stackx.solvers.planar.contacts import (A, B, DEPTH, KN, KT, MU, NX, NY, PN, PT, contact_workspace,
                                             correct_positions, find_contacts_near, gravity, integrate_positions,
                                             manifold_impulse, manifold_size, manifold_velocity,
-                                            near_workspace, observe_contacts, prepare)
+                                            near_workspace, observe_contacts, prepare, remember)
 from stackx.solvers.planar.wavefront import manifold_order
 
 
@@ -96,10 +96,11 @@ def lab_pass(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, inv_mass: np.ndarray
 def planar_pgs_advance(x: np.ndarray, y: np.ndarray, angle: np.ndarray, vx: np.ndarray, vy: np.ndarray,
                        w: np.ndarray, inv_mass: np.ndarray, inv_inertia: np.ndarray, hx: np.ndarray,
                        hy: np.ndarray, friction: np.ndarray, g: np.ndarray, dt: np.ndarray, iterations: np.ndarray,
-                       corrects: np.ndarray, slop: np.ndarray, percent: np.ndarray, last: np.ndarray,
-                       peak: np.ndarray, reach: np.ndarray, touched: np.ndarray, launch: np.ndarray,
-                       steps: int) -> None:
-    """``steps`` lab steps of every batch row, in place."""
+                       corrects: np.ndarray, slop: np.ndarray, percent: np.ndarray, keys: np.ndarray,
+                       carried: np.ndarray, held: np.ndarray, last: np.ndarray, peak: np.ndarray,
+                       reach: np.ndarray, touched: np.ndarray, launch: np.ndarray, steps: int) -> None:
+    """``steps`` lab steps of every batch row, in place; ``keys``, ``carried`` and ``held`` get each step's
+    impulses (a record for the bench: no step starts from them)."""
     for b in prange(x.shape[0]):
         xb, yb, ab, vxb, vyb, wb = x[b], y[b], angle[b], vx[b], vy[b], w[b]  # the row's views, made once
         im, ii, hxb, hyb, mub = inv_mass[b], inv_inertia[b], hx[b], hy[b], friction[b]
@@ -113,6 +114,7 @@ def planar_pgs_advance(x: np.ndarray, y: np.ndarray, angle: np.ndarray, vx: np.n
             order = manifold_order(ids, count, x.shape[1])
             for _ in range(iterations[b]):
                 lab_pass(vxb, vyb, wb, im, ii, ids, table, count, order)
+            held[b] = remember(ids, table, count, keys[b], carried[b])
             integrate_positions(xb, yb, ab, vxb, vyb, wb, dt[b])
             moved = True
             if corrects[b]:
@@ -125,7 +127,7 @@ def planar_pgs_advance(x: np.ndarray, y: np.ndarray, angle: np.ndarray, vx: np.n
 
 
 @solvers.register("planar-pgs")
-class PlanarPGS(PlanarSolver):
+class PlanarPGS(PlanarMemorySolver):
     """The lab's projected Gauss-Seidel on planar boxes: ``iterations`` trade CPU for how solid a pile is."""
 
     Params = PlanarPGSParams
@@ -139,4 +141,4 @@ class PlanarPGS(PlanarSolver):
         s = state
         planar_pgs_advance(s.x, s.y, s.angle, s.vx, s.vy, s.w, s.inv_mass, s.inv_inertia, s.hx, s.hy, s.friction,
                            self.gravity, self.dt, self.iterations, self.corrects, self.slop, self.percent,
-                           *s.monitors(), steps)
+                           *self.memory(state), *s.monitors(), steps)

@@ -51,7 +51,8 @@ from pydantic import Field
 from stackx.kernel import kernel, leaf, prange
 from stackx.models.planar.state import PlanarState
 from stackx.registry import solvers
-from stackx.solvers.planar.base import PlanarMemorySolver
+from stackx.solvers.planar.applied import add_applied, clear_applied
+from stackx.solvers.planar.base import PlanarMemorySolver, StepImpulses
 from stackx.solvers.planar.contacts import (A, B, DEPTH, NX, NY, PN, PT, PX, PY, contact_workspace,
                                             effective_mass, find_contacts, observed_contacts, recall, remember)
 from stackx.solvers.planar.wavefront import manifold_starts, wavefronts
@@ -304,10 +305,11 @@ def soft_step_advance(x: np.ndarray, y: np.ndarray, angle: np.ndarray, vx: np.nd
                       friction: np.ndarray, g: np.ndarray, dt: np.ndarray, substeps: np.ndarray,
                       hertz: np.ndarray, damping_ratio: np.ndarray, push_out: np.ndarray, relax: np.ndarray,
                       warm: np.ndarray, speculative: np.ndarray, keys: np.ndarray, carried: np.ndarray,
-                      held: np.ndarray, last: np.ndarray, peak: np.ndarray, reach: np.ndarray, touched: np.ndarray,
-                      launch: np.ndarray, steps: int) -> None:
+                      held: np.ndarray, applied: np.ndarray, last: np.ndarray, peak: np.ndarray, reach: np.ndarray,
+                      touched: np.ndarray, launch: np.ndarray, steps: int) -> None:
     """``steps`` steps of every batch row, in place; ``keys``, ``carried`` and ``held`` carry each row's
-    points and impulses from one step (and one call) to the next."""
+    points and impulses from one step (and one call) to the next; ``applied`` gets what each step applied
+    (``stackx.solvers.planar.applied``)."""
     for b in prange(x.shape[0]):
         xb, yb, ab, vxb, vyb, wb = x[b], y[b], angle[b], vx[b], vy[b], w[b]  # the row's views, made once
         im, ii, hxb, hyb, mub = inv_mass[b], inv_inertia[b], hx[b], hy[b], friction[b]
@@ -335,6 +337,7 @@ def soft_step_advance(x: np.ndarray, y: np.ndarray, angle: np.ndarray, vx: np.nd
             for i in range(n):
                 start[i, 0], start[i, 1], start[i, 2] = xb[i], yb[i], ab[i]
             load_bodies(vxb, vyb, wb, im, ii, bodies)
+            clear_applied(applied[b], count)
             for _ in range(substeps[b]):
                 body_gravity(bodies, n, g[b], h)
                 soft_warm_start(bodies, links, points, count)
@@ -342,6 +345,7 @@ def soft_step_advance(x: np.ndarray, y: np.ndarray, angle: np.ndarray, vx: np.nd
                 integrate_moved(xb, yb, ab, bodies, start, h)
                 if relax[b]:
                     soft_pass(bodies, links, points, waves, ends, h, False, push_out[b])
+                add_applied(links[:, L_ROW], points[P_PN], points[P_PT], count, applied[b])
             store_velocities(bodies, vxb, vyb, wb)
             give_back(table, links, points, count)
             held[b] = remember(ids, table, count, keys[b], carried[b])
@@ -364,13 +368,27 @@ class PlanarSoftStep(PlanarMemorySolver):
         self.relax = self.flags("relax")
         self.warm = self.flags("warm_start")
         self.speculative = self.column("speculative")
+        self.applied: np.ndarray | None = None  # per row and point, what the last step applied (applied.py)
 
     @classmethod
     def passes(cls, params: PlanarSoftStepParams) -> int:
         return params.substeps * (2 if params.relax else 1)
 
+    def step_impulses(self, b: int) -> StepImpulses | None:
+        """The impulses of the last step summed over its substeps (``stackx.solvers.planar.applied``: what
+        that means and what it cannot show); None as ``PlanarMemorySolver``'s."""
+        held = super().step_impulses(b)
+        if held is None or self.applied is None:
+            return None
+        n = held.pn.shape[0]
+        return StepImpulses(held.keys, self.applied[b, :n, 0].copy(), self.applied[b, :n, 1].copy())
+
     def advance(self, state: PlanarState, steps: int) -> None:
         s = state
+        keys, carried, held = self.memory(state)
+        if self.applied is None or self.applied.shape[:2] != keys.shape[:2]:
+            self.applied = np.zeros(keys.shape[:2] + (2,))
         soft_step_advance(s.x, s.y, s.angle, s.vx, s.vy, s.w, s.inv_mass, s.inv_inertia, s.hx, s.hy, s.friction,
                           self.gravity, self.dt, self.substeps, self.hertz, self.damping_ratio, self.push_out,
-                          self.relax, self.warm, self.speculative, *self.memory(state), *s.monitors(), steps)
+                          self.relax, self.warm, self.speculative, keys, carried, held, self.applied, *s.monitors(),
+                          steps)

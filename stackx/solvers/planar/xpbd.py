@@ -46,7 +46,7 @@ from stackx.models.planar.monitor import contact_room
 from stackx.models.planar.state import PlanarState
 from stackx.registry import solvers
 from stackx.solvers.contacts import speculative_field
-from stackx.solvers.planar.base import PlanarSolver
+from stackx.solvers.planar.base import PlanarSolver, StepImpulses
 from stackx.solvers.planar.reach import contact_margin
 from stackx.solvers.planar.contacts import (A, B, MU, NX, NY, PN, PT, RAX, RAY, RBX, RBY, apply_impulse,
                                             contact_workspace, effective_mass, find_contacts, gravity,
@@ -335,6 +335,12 @@ class PlanarXPBD(PlanarSolver):
     @classmethod
     def passes(cls, params: PlanarXPBDParams) -> int:
         return 2 * params.substeps
+
+    def step_impulses(self, b: int) -> StepImpulses | None:
+        """None: XPBD's velocities are its positions' motion over the last substep, pushed at anchors that turn
+        with their bodies; no impulses on the step's contact problem give them, so the bench checks what
+        its velocities alone show (``stackx.models.planar.conditions.approach``)."""
+        return None
 
     def advance(self, state: PlanarState, steps: int) -> None:
         s = state
