@@ -33,9 +33,11 @@ def test_each_condition_is_measured_on_its_own() -> None:
     out = violations(_box_on_ground(0.0, -0.2), np.array([0.2]), np.array([0.3]))
     assert out["box"] == pytest.approx(0.5) and out["penetration"] == 0.0
     # friction inside the box while the point slips: vx = 0.3 - 0.05, w = 6 * (-0.5 * 0.05) = -0.15, so the
-    # point moves at 0.25 - 0.15 * 0.5 = 0.175 m/s along x, ut = -0.175
+    # point moves at 0.25 - 0.15 * 0.5 = 0.175 m/s along x, ut = -0.175; counted up to how far friction is from
+    # its bound, (0.1 - 0.05) / k_t = 0.125 m/s; with friction at 0.09, (0.1 - 0.09) / 0.4 = 0.025 m/s
     out = violations(_box_on_ground(0.3, -0.2), np.array([0.2]), np.array([0.05]))
-    assert out["dissipation"] == pytest.approx(0.175) and out["box"] == 0.0
+    assert out["dissipation"] == pytest.approx(0.125) and out["box"] == 0.0
+    assert violations(_box_on_ground(0.3, -0.2), np.array([0.2]), np.array([0.09]))["dissipation"] == pytest.approx(0.025)
     # friction at its bound, pt = +mu pn = 0.1 (along t = (-1, 0)), so the point must slip along +x (ut <= 0):
     # from vx = 0.3, vx = 0.2 and w = 6 * (-0.5 * 0.1) = -0.3, the point moves at 0.2 - 0.15 = 0.05 m/s: right;
     # from vx = -0.3, at -0.4 - 0.15 = -0.55 m/s, ut = +0.55: friction pushes the slip along

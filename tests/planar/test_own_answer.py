@@ -61,7 +61,7 @@ def plain_conditions(problem: ContactProblem, pn: list[float], pt: list[float],
     faster than its target; ``pn >= 0`` (as the speed ``pn / k_n`` it gives the point alone); no push while
     separating (``min(pn / k_n, un - target)``); ``|pt| <= mu pn`` (the excess over ``k_t``); a point pressed
     (``pn > 0``) slips only with friction at its bound, ``pt = mu pn`` with ``ut <= 0``, ``pt = -mu pn`` with
-    ``ut >= 0``. ``velocity``: the bodies' velocities after the step."""
+    ``ut >= 0``; inside the bound, the slip counts up to the friction's distance from it (``/ k_t``). ``velocity``: the bodies' velocities after the step."""
     out = dict.fromkeys(NAMES, 0.0)
     for k in range(problem.points):
         un, ut, inv_n, inv_t = point_terms(problem, k, velocity)
@@ -70,7 +70,7 @@ def plain_conditions(problem: ContactProblem, pn: list[float], pt: list[float],
         slip = 0.0
         if pn[k] > 0.0:
             if abs(pt[k]) < bound:
-                slip = abs(ut)
+                slip = min(abs(ut), (bound - abs(pt[k])) * inv_t)
             elif pt[k] >= bound:
                 slip = max(ut, 0.0)
             else:

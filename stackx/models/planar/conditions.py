@@ -9,8 +9,9 @@ breaks, at the cost of one pass over the step's points, so it can run on every s
   (*penetration*), a normal impulse below zero (*pull*, as the velocity it would give the point alone),
   a point pushing while it separates faster than its target (*complementarity*, the smaller of the two), a
   tangent impulse outside Coulomb's box (*box*), and friction not opposing the slip at its bound or a point
-  slipping while friction is inside the box (*dissipation*, the slip it lets through; a point that does
-  not push has no friction to check);
+  slipping while friction is inside the box (*dissipation*, the slip it lets through, at most the
+  friction's distance from its bound as a speed, so a friction at its bound but for rounding reads as at
+  it, as in the residual; a point that does not push has no friction to check);
 - with velocities alone (``approach``), what a solver that keeps its impulses to itself (an engine) still
   shows: the fastest approach beyond a point's target. Friction and complementarity need the impulses.
 
@@ -102,8 +103,8 @@ def condition_violations(inv_mass: np.ndarray, inv_inertia: np.ndarray, velocity
         bound = friction[k] * pn[k]
         slip = 0.0
         if pn[k] > 0.0:
-            if abs(pt[k]) < bound:
-                slip = abs(ut)  # held inside the box: the point must not slip
+            if abs(pt[k]) < bound:  # held inside the box: the point must not slip, and a friction a hair
+                slip = min(abs(ut), (bound - abs(pt[k])) * inv_t)  # inside its bound (rounding) is at it
             elif pt[k] >= bound:
                 slip = max(ut, 0.0)  # at +mu pn friction must leave a slip along -t
             else:
