@@ -188,6 +188,8 @@ class StepLog:
         speculative = np.array([float(getattr(r.solver_params, "speculative", 0.0)) for r in runs])
         reaches = np.array([bool(getattr(r.solver_cls, "speculative_reach", False)) for r in runs])
         exposed = getattr(solver, "step_impulses", None)  # planar solvers have it; engines do not
+        if exposed is not None:
+            solver.watch_impulses()  # type: ignore[union-attr]
 
         def on_step(k: int, before: PlanarState, after: PlanarState) -> None:
             log.steps = k + 1

@@ -60,6 +60,10 @@ class PlanarSolver(Solver):
         """The impulses row ``b``'s last step applied (see the module text); None: not exposed."""
         return None
 
+    def watch_impulses(self) -> None:
+        """The caller reads ``step_impulses`` after every step: a solver that spends work only to keep them
+        (the soft step sums them over its substeps) starts keeping them; stepping alone does not pay for it."""
+
 
 class PlanarMemorySolver(PlanarSolver):
     """A planar solver that keeps each contact point's impulses at the end of its last step: what a warm

@@ -309,7 +309,7 @@ def soft_step_advance(x: np.ndarray, y: np.ndarray, angle: np.ndarray, vx: np.nd
                       touched: np.ndarray, launch: np.ndarray, steps: int) -> None:
     """``steps`` steps of every batch row, in place; ``keys``, ``carried`` and ``held`` carry each row's
     points and impulses from one step (and one call) to the next; ``applied`` gets what each step applied
-    (``stackx.solvers.planar.applied``)."""
+    (``stackx.solvers.planar.applied``) when it has room for them (``watch_impulses``), else nothing."""
     for b in prange(x.shape[0]):
         xb, yb, ab, vxb, vyb, wb = x[b], y[b], angle[b], vx[b], vy[b], w[b]  # the row's views, made once
         im, ii, hxb, hyb, mub = inv_mass[b], inv_inertia[b], hx[b], hy[b], friction[b]
@@ -324,6 +324,7 @@ def soft_step_advance(x: np.ndarray, y: np.ndarray, angle: np.ndarray, vx: np.nd
         start = np.empty((n, 3))
         bodies = np.empty((BODY_COLUMNS, n + 1))
         ids, table, count = find_contacts(xb, yb, ab, hxb, hyb, im, speculative[b], ids, table)
+        watched = applied.shape[1] > 0  # the step's impulses are summed only for a caller that reads them
         for _ in range(steps):
             if points.shape[1] < ids.shape[0]:
                 first, order, wave, tally, ends, latest, links, points = pass_workspace(ids.shape[0], n)
@@ -337,7 +338,8 @@ def soft_step_advance(x: np.ndarray, y: np.ndarray, angle: np.ndarray, vx: np.nd
             for i in range(n):
                 start[i, 0], start[i, 1], start[i, 2] = xb[i], yb[i], ab[i]
             load_bodies(vxb, vyb, wb, im, ii, bodies)
-            clear_applied(applied[b], count)
+            if watched:
+                clear_applied(applied[b], count)
             for _ in range(substeps[b]):
                 body_gravity(bodies, n, g[b], h)
                 soft_warm_start(bodies, links, points, count)
@@ -345,7 +347,8 @@ def soft_step_advance(x: np.ndarray, y: np.ndarray, angle: np.ndarray, vx: np.nd
                 integrate_moved(xb, yb, ab, bodies, start, h)
                 if relax[b]:
                     soft_pass(bodies, links, points, waves, ends, h, False, push_out[b])
-                add_applied(links[:, L_ROW], points[P_PN], points[P_PT], count, applied[b])
+                if watched:
+                    add_applied(links[:, L_ROW], points[P_PN], points[P_PT], count, applied[b])
             store_velocities(bodies, vxb, vyb, wb)
             give_back(table, links, points, count)
             held[b] = remember(ids, table, count, keys[b], carried[b])
@@ -369,6 +372,7 @@ class PlanarSoftStep(PlanarMemorySolver):
         self.warm = self.flags("warm_start")
         self.speculative = self.column("speculative")
         self.applied: np.ndarray | None = None  # per row and point, what the last step applied (applied.py)
+        self.watched = False  # whether ``applied`` is kept: only for a caller that reads it (watch_impulses)
 
     @classmethod
     def passes(cls, params: PlanarSoftStepParams) -> int:
@@ -378,16 +382,20 @@ class PlanarSoftStep(PlanarMemorySolver):
         """The impulses of the last step summed over its substeps (``stackx.solvers.planar.applied``: what
         that means and what it cannot show); None as ``PlanarMemorySolver``'s."""
         held = super().step_impulses(b)
-        if held is None or self.applied is None:
+        if held is None or not self.watched or self.applied is None:
             return None
         n = held.pn.shape[0]
         return StepImpulses(held.keys, self.applied[b, :n, 0].copy(), self.applied[b, :n, 1].copy())
 
+    def watch_impulses(self) -> None:
+        self.watched = True
+
     def advance(self, state: PlanarState, steps: int) -> None:
         s = state
         keys, carried, held = self.memory(state)
-        if self.applied is None or self.applied.shape[:2] != keys.shape[:2]:
-            self.applied = np.zeros(keys.shape[:2] + (2,))
+        room = keys.shape[1] if self.watched else 0
+        if self.applied is None or self.applied.shape[:2] != (keys.shape[0], room):
+            self.applied = np.zeros((keys.shape[0], room, 2))
         soft_step_advance(s.x, s.y, s.angle, s.vx, s.vy, s.w, s.inv_mass, s.inv_inertia, s.hx, s.hy, s.friction,
                           self.gravity, self.dt, self.substeps, self.hertz, self.damping_ratio, self.push_out,
                           self.relax, self.warm, self.speculative, keys, carried, held, self.applied, *s.monitors(),
