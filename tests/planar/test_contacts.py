@@ -175,8 +175,8 @@ def test_a_pass_in_manifold_order_gives_the_numbers_of_a_table_order_sweep(compi
     top to bottom, bit for bit; and on a pile it does reorder (that is what it is for)."""
     from stackx import kernel
     from stackx.scenes.planar import Planar, PlanarParams, Pyramid
-    from stackx.solvers.planar.contacts import accumulated_iteration, manifold_size, set_targets
-    from stackx.solvers.planar.wavefront import manifold_order
+    from stackx.solvers.planar.contacts import accumulated_iteration, set_targets
+    from stackx.solvers.planar.wavefront import manifold_end, manifold_order
     from stackx.solvers.planar.pgs import lab_pass
     from tests.planar.worlds import run
 
@@ -190,8 +190,8 @@ def test_a_pass_in_manifold_order_gives_the_numbers_of_a_table_order_sweep(compi
         set_targets(table, count, 1 / 60)
         order = manifold_order(ids, count, s.bodies)
     starts = [0]
-    while starts[-1] + manifold_size(ids, count, starts[-1]) < count:
-        starts.append(starts[-1] + manifold_size(ids, count, starts[-1]))
+    while manifold_end(ids, starts[-1], count) < count:
+        starts.append(manifold_end(ids, starts[-1], count))
     assert sorted(order) == starts and list(order) != starts
     for body in range(s.bodies):  # each body's manifolds keep their table order
         mine = [k for k in order if body in (ids[k, A], ids[k, B])]

@@ -16,8 +16,8 @@ from stackx.solvers.planar.contacts import (A, B, KN, KT, MU, NX, NY, PN, PT, co
                                             gravity, integrate_positions, manifold_impulse, manifold_velocity,
                                             prepare, recall, remember, warm_start)
 from stackx.solvers.planar.soft_step import SUBSTEP_HERTZ, PlanarSoftStep, PlanarSoftStepParams
-from stackx.solvers.planar.substep import base_separations, manifold_end, moved, separation, step_start
-from stackx.solvers.planar.wavefront import manifold_starts, wavefronts
+from stackx.solvers.planar.substep import base_separations, moved, separation, step_start
+from stackx.solvers.planar.wavefront import manifold_end, manifold_starts, wavefronts
 from stackx.models.planar.state import PlanarState
 from tests.planar.hand_states import boxes, pyramid
 

@@ -45,6 +45,8 @@ class StepImpulses:
 class PlanarSolver(Solver):
     """Base of the planar solvers: they step ``PlanarState``s."""
 
+    watched = False  # whether a caller reads ``step_impulses`` after every step (``watch_impulses``)
+
     models = ("planar",)
     speculative_reach: ClassVar[bool] = False  # True: the contact margin grows with speed (planar.reach)
 
@@ -62,7 +64,9 @@ class PlanarSolver(Solver):
 
     def watch_impulses(self) -> None:
         """The caller reads ``step_impulses`` after every step: a solver that spends work only to keep them
-        (the soft step sums them over its substeps) starts keeping them; stepping alone does not pay for it."""
+        (the soft step sums them over its substeps, pgs records what its passes gave) keeps them from now on
+        (``watched``); stepping alone does not pay for it."""
+        self.watched = True
 
 
 class PlanarMemorySolver(PlanarSolver):

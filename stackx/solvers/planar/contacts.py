@@ -64,7 +64,7 @@ from stackx.models.touch import TOUCH_GAP
 from stackx.solvers.planar.columns import (A, B, COLUMNS, CONDITIONED, DEPTH, FEATURE, K11, K12, K22, KN, KT,  # noqa: F401
                                            LFX, LFY, LNX, LNY, LQX, LQY, MU, NX, NY, PN, PT, PX, PY, RAX, RAY,
                                            RBX, RBY, TARGET)
-from stackx.solvers.planar.wavefront import manifold_order
+from stackx.solvers.planar.wavefront import manifold_end, manifold_order
 
 FLIPPED = 64  # collide's features from 64 up: the reference face is on body B
 LOOSENESS = 0.05  # m a side the kept candidates' bounds are grown by (Box2D v3's B2_MAX_AABB_MARGIN)
@@ -513,13 +513,6 @@ def block_normal(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, inv_mass: np.nda
 
 
 @leaf
-def manifold_size(ids: np.ndarray, count: int, k: int) -> int:
-    """How many points the manifold starting at point ``k`` has: 2 when the next point has the same two
-    bodies, else 1 (``collide`` gives at most two a pair)."""
-    return 2 if k + 1 < count and ids[k + 1, A] == ids[k, A] and ids[k + 1, B] == ids[k, B] else 1
-
-
-@leaf
 def accumulated_iteration(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, inv_mass: np.ndarray,
                           inv_inertia: np.ndarray, ids: np.ndarray, table: np.ndarray, count: int,
                           order: np.ndarray, block: bool, relaxation: float) -> None:
@@ -537,7 +530,7 @@ def accumulated_iteration(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, inv_mas
     """
     for m in range(order.shape[0]):
         k = order[m]
-        size = manifold_size(ids, count, k)
+        end = manifold_end(ids, k, count)
         a, b = ids[k, A], ids[k, B]
         grounded = a < 0  # the manifold's two bodies' velocities held in locals over its points
         vax, vay, wa, ima, iia = 0.0, 0.0, 0.0, 0.0, 0.0
@@ -545,14 +538,14 @@ def accumulated_iteration(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, inv_mas
             vax, vay, wa, ima, iia = vx[a], vy[a], w[a], inv_mass[a], inv_inertia[a]
         vbx, vby, wb, imb, iib = vx[b], vy[b], w[b], inv_mass[b], inv_inertia[b]
         solved = False
-        if block and size == 2:
+        if block and end - k == 2:
             solved, vax, vay, wa, vbx, vby, wb = block_step(vax, vay, wa, vbx, vby, wb, grounded, ima, iia, imb,
                                                             iib, table, k, relaxation)
         if not solved:
-            for i in range(k, k + size):
+            for i in range(k, end):
                 vax, vay, wa, vbx, vby, wb = normal_step(vax, vay, wa, vbx, vby, wb, grounded, ima, iia, imb, iib,
                                                          table, i, relaxation)
-        for i in range(k, k + size):
+        for i in range(k, end):
             vax, vay, wa, vbx, vby, wb = friction_step(vax, vay, wa, vbx, vby, wb, grounded, ima, iia, imb, iib,
                                                        table, i)
         if not grounded:

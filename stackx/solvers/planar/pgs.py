@@ -5,7 +5,7 @@ One step of one world, in the lab's order:
 2. contacts: the points that overlap now (depth > 0), with anchors and effective masses (``contacts``);
 3. ``iterations`` velocity passes, each visiting the points in table order (ground points first, then pairs
    by index), every point seeing the velocities the earlier visits left (Gauss-Seidel; visits that share no
-   body may swap, which changes no number: ``contacts.manifold_order``). A visit stops the point's approach
+   body may swap, which changes no number: ``wavefront.manifold_order``). A visit stops the point's approach
    along the normal (restitution 0) with an impulse clamped at 0 on its own, then applies
    friction clamped by that same visit's normal impulse: the lab has no accumulated impulse, so a visit that
    finds the point already separating (no normal impulse) holds nothing sideways either;
@@ -28,12 +28,12 @@ from stackx.models.planar.monitor import contact_room
 from stackx.models.planar.state import PlanarState
 from stackx.registry import solvers
 from stackx.solvers.base import Correction, LabCorrection
-from stackx.solvers.planar.base import PlanarMemorySolver, sequential_only
+from stackx.solvers.planar.base import PlanarMemorySolver, StepImpulses, sequential_only
 from stackx.solvers.planar.contacts import (A, B, DEPTH, KN, KT, MU, NX, NY, PN, PT, contact_workspace,
                                             correct_positions, find_contacts_near, gravity, integrate_positions,
-                                            manifold_impulse, manifold_size, manifold_velocity,
+                                            manifold_impulse, manifold_velocity,
                                             near_workspace, observe_contacts, prepare, remember)
-from stackx.solvers.planar.wavefront import manifold_order
+from stackx.solvers.planar.wavefront import manifold_end, manifold_order
 
 
 class PlanarPGSParams(BaseModel):
@@ -56,7 +56,7 @@ def lab_pass(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, inv_mass: np.ndarray
     """One pass of per-visit clamped impulses over the overlapping points: stop the approach, then friction
     within ``mu`` times this visit's normal impulse. ``PN``/``PT`` add up what the visits gave (a record).
 
-    The points are visited manifold by manifold in ``order`` (``contacts.manifold_order``): for every body
+    The points are visited manifold by manifold in ``order`` (``wavefront.manifold_order``): for every body
     its points come in table order, so the numbers are those of visiting the table from top to bottom, while
     manifolds that share no body come side by side and overlap in the processor. A manifold's two bodies'
     velocities are held in locals over its points (``manifold_velocity``, ``manifold_impulse``: the same
@@ -69,7 +69,7 @@ def lab_pass(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, inv_mass: np.ndarray
         if not grounded:
             vax, vay, wa, ima, iia = vx[a], vy[a], w[a], inv_mass[a], inv_inertia[a]
         vbx, vby, wb, imb, iib = vx[b], vy[b], w[b], inv_mass[b], inv_inertia[b]
-        for i in range(k, k + manifold_size(ids, count, k)):
+        for i in range(k, manifold_end(ids, k, count)):
             if table[i, DEPTH] <= 0.0:
                 continue
             nx, ny = table[i, NX], table[i, NY]
@@ -97,10 +97,10 @@ def planar_pgs_advance(x: np.ndarray, y: np.ndarray, angle: np.ndarray, vx: np.n
                        w: np.ndarray, inv_mass: np.ndarray, inv_inertia: np.ndarray, hx: np.ndarray,
                        hy: np.ndarray, friction: np.ndarray, g: np.ndarray, dt: np.ndarray, iterations: np.ndarray,
                        corrects: np.ndarray, slop: np.ndarray, percent: np.ndarray, keys: np.ndarray,
-                       carried: np.ndarray, held: np.ndarray, last: np.ndarray, peak: np.ndarray,
+                       carried: np.ndarray, held: np.ndarray, record: bool, last: np.ndarray, peak: np.ndarray,
                        reach: np.ndarray, touched: np.ndarray, launch: np.ndarray, steps: int) -> None:
-    """``steps`` lab steps of every batch row, in place; ``keys``, ``carried`` and ``held`` get each step's
-    impulses (a record for the bench: no step starts from them)."""
+    """``steps`` lab steps of every batch row, in place; with ``record``, ``keys``, ``carried`` and ``held``
+    get each step's impulses (for a caller that reads them: no step starts from them)."""
     for b in prange(x.shape[0]):
         xb, yb, ab, vxb, vyb, wb = x[b], y[b], angle[b], vx[b], vy[b], w[b]  # the row's views, made once
         im, ii, hxb, hyb, mub = inv_mass[b], inv_inertia[b], hx[b], hy[b], friction[b]
@@ -114,7 +114,8 @@ def planar_pgs_advance(x: np.ndarray, y: np.ndarray, angle: np.ndarray, vx: np.n
             order = manifold_order(ids, count, x.shape[1])
             for _ in range(iterations[b]):
                 lab_pass(vxb, vyb, wb, im, ii, ids, table, count, order)
-            held[b] = remember(ids, table, count, keys[b], carried[b])
+            if record:
+                held[b] = remember(ids, table, count, keys[b], carried[b])
             integrate_positions(xb, yb, ab, vxb, vyb, wb, dt[b])
             moved = True
             if corrects[b]:
@@ -141,4 +142,9 @@ class PlanarPGS(PlanarMemorySolver):
         s = state
         planar_pgs_advance(s.x, s.y, s.angle, s.vx, s.vy, s.w, s.inv_mass, s.inv_inertia, s.hx, s.hy, s.friction,
                            self.gravity, self.dt, self.iterations, self.corrects, self.slop, self.percent,
-                           *self.memory(state), *s.monitors(), steps)
+                           *self.memory(state), self.watched, *s.monitors(), steps)
+
+    def step_impulses(self, b: int) -> StepImpulses | None:
+        """What row ``b``'s last step's passes gave, once a caller watches them (``watch_impulses``); None
+        before."""
+        return super().step_impulses(b) if self.watched else None

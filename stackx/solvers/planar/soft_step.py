@@ -372,7 +372,6 @@ class PlanarSoftStep(PlanarMemorySolver):
         self.warm = self.flags("warm_start")
         self.speculative = self.column("speculative")
         self.applied: np.ndarray | None = None  # per row and point, what the last step applied (applied.py)
-        self.watched = False  # whether ``applied`` is kept: only for a caller that reads it (watch_impulses)
 
     @classmethod
     def passes(cls, params: PlanarSoftStepParams) -> int:
@@ -386,9 +385,6 @@ class PlanarSoftStep(PlanarMemorySolver):
             return None
         n = held.pn.shape[0]
         return StepImpulses(held.keys, self.applied[b, :n, 0].copy(), self.applied[b, :n, 1].copy())
-
-    def watch_impulses(self) -> None:
-        self.watched = True
 
     def advance(self, state: PlanarState, steps: int) -> None:
         s = state

@@ -7,7 +7,7 @@ kept in ``since`` ``(bodies, 4)``: ``dx, dy`` and the cosine and sine of its tur
 is its separation when found plus how far its two anchors have come apart along the normal (Box2D v3
 measures a substep's separation this way). Holding the normal is exact for the ground and for boxes that
 turn little within a step; a box that turns far within one step would need its contacts found again.
-Both solvers visit a face's points together, so ``manifold_end`` says where each manifold's points end.
+Both solvers visit a face's points together, so ``wavefront.manifold_end`` says where each manifold's points end.
 """
 
 from __future__ import annotations
@@ -70,12 +70,3 @@ def separation(ids: np.ndarray, table: np.ndarray, base: np.ndarray, since: np.n
         px -= since[a, 0] + rx
         py -= since[a, 1] + ry
     return base[k] + px * table[k, NX] + py * table[k, NY]
-
-
-@leaf
-def manifold_end(ids: np.ndarray, start: int, count: int) -> int:
-    """One past the last point of the manifold (the same two bodies) that begins at ``start``."""
-    end = start + 1
-    while end < count and ids[end, A] == ids[start, A] and ids[end, B] == ids[start, B]:
-        end += 1
-    return end

@@ -23,14 +23,23 @@ from stackx.solvers.planar.columns import A, B
 
 
 @leaf
+def manifold_end(ids: np.ndarray, start: int, count: int) -> int:
+    """One past the last point of the manifold (the same two bodies) that begins at ``start``."""
+    end = start + 1
+    while end < count and ids[end, A] == ids[start, A] and ids[end, B] == ids[start, B]:
+        end += 1
+    return end
+
+
+@leaf
 def manifold_starts(ids: np.ndarray, count: int, first: np.ndarray) -> int:
     """Where each manifold (the consecutive points of the same two bodies) begins: ``first[0..m]``, with
     ``first[m] = count``; returns ``m``. ``first`` has room for ``count + 1``."""
-    m = 0
-    for k in range(count):
-        if k == 0 or ids[k, A] != ids[k - 1, A] or ids[k, B] != ids[k - 1, B]:
-            first[m] = k
-            m += 1
+    m, k = 0, 0
+    while k < count:
+        first[m] = k
+        m += 1
+        k = manifold_end(ids, k, count)
     first[m] = count
     return m
 

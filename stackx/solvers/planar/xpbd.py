@@ -52,8 +52,8 @@ from stackx.solvers.planar.contacts import (A, B, MU, NX, NY, PN, PT, RAX, RAY, 
                                             contact_workspace, effective_mass, find_contacts, gravity,
                                             integrate_positions, observed_contacts, prepare, relative_velocity,
                                             two_point_lcp)
-from stackx.solvers.planar.substep import (anchor, base_separations, manifold_end, moved, moved_body, separation,
-                                           step_start)
+from stackx.solvers.planar.substep import anchor, base_separations, moved, moved_body, separation, step_start
+from stackx.solvers.planar.wavefront import manifold_end
 from stackx.solvers.column.xpbd import XPBDParams
 
 
