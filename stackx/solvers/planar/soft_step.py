@@ -17,12 +17,13 @@ times with ``h = dt / substeps``:
 
 How a step is laid out (Box2D v3.1's ``contact_solver.c`` and ``solver.c`` do the same work once a step:
 anchors relative to the centres, normal and tangent masses, the separation when found, the softness, in
-arrays the substeps walk in order, bodies' velocities in one compact array): once a step, ``lay_out``
-writes every point's row with all a visit reads that does not change within the step, in the order the
+arrays the substeps walk in order, bodies' velocities in one compact array): once a step, ``wide.lay_out``
+writes all a visit reads that does not change within the step, manifold by manifold in the order the
 passes visit them, and the bodies' velocities, masses and motion since the step began sit in one row each,
 the ground as a last row of zeros. The order is ``wavefront``'s: manifolds in waves that share no body,
-which gives the numbers of visiting them in table order to the bit (see that module) while each visit of a
-wave's pass is independent of the one before it, so the processor overlaps them.
+which gives the numbers of visiting them in table order to the bit (see that module), and the manifolds of
+a wave are solved several at a time in the lanes of vector registers, as Box2D v3 solves a graph colour
+(``wide``).
 
 Restitution is 0. With ``w = 2 pi hertz``, ``z`` the damping ratio and ``h`` the substep the soft
 coefficients are Box2D v3's (``stackx.solvers.column.soft_step.soft``, shared with the column): the separating
@@ -51,11 +52,13 @@ from pydantic import Field
 from stackx.kernel import kernel, leaf, prange
 from stackx.models.planar.state import PlanarState
 from stackx.registry import solvers
-from stackx.solvers.planar.applied import add_applied, clear_applied
+from stackx.solvers.planar.applied import clear_applied
 from stackx.solvers.planar.base import PlanarMemorySolver, StepImpulses
-from stackx.solvers.planar.contacts import (A, B, DEPTH, NX, NY, PN, PT, PX, PY, contact_workspace,
-                                            effective_mass, find_contacts, observed_contacts, recall, remember)
+from stackx.solvers.planar.contacts import PN, PT, contact_workspace, find_contacts, observed_contacts, recall, remember
 from stackx.solvers.planar.wavefront import manifold_starts, wavefronts
+from stackx.solvers.planar.wide import (BODY_COLUMNS, COS, D_X, D_Y, INV_I, INV_M, LANES, SIN, V_W, V_X, V_Y,
+                                        add_applied, block_workspace, blocks_needed, give_back, lay_out, soft_pass,
+                                        warm_start)
 from stackx.solvers.column.soft_step import STATIC_HERTZ, SoftStepParams, soft
 
 
@@ -77,84 +80,13 @@ class PlanarSoftStepParams(SoftStepParams):
                                                "a tall stack sinks and sways")
 
 
-# the pass's layout, one row per point in the order the passes visit them: its two bodies (the ground is body
-# ``n``, after the boxes) and its row of the table (ints), and (floats) its normal, anchors, effective masses,
-# friction, separation when found less what the anchors give along the normal, its softness (bias rate, mass
-# scale, impulse scale) and impulses
-L_A, L_B, L_ROW = range(3)
-P_NX, P_NY, P_RAX, P_RAY, P_RBX, P_RBY, P_KN, P_KT, P_MU, P_BASE, P_BIAS, P_SCALE, P_LET_GO, P_PN, P_PT = range(15)
-POINT_COLUMNS = 15
-# the bodies as the passes read them, one row each and the ground's last: velocities, inverse mass and
-# inertia, and the motion since the step began (``substep.moved_body``: dx, dy, cosine and sine of the turn)
-V_X, V_Y, V_W, INV_M, INV_I, D_X, D_Y, COS, SIN = range(9)
-BODY_COLUMNS = 9
-
-
 @kernel
 def pass_workspace(room: int, bodies: int) -> tuple[np.ndarray, ...]:
     """Room for the layout of ``room`` points of ``bodies`` bodies: ``(first, order, wave, tally, ends,
-    latest, links, points)``, the scratch of ``wavefront`` and ``lay_out``."""
+    latest)``, the scratch of ``wavefront`` and ``wide.lay_out`` (whose blocks ``wide.block_workspace``
+    makes)."""
     return (np.empty(room + 1, np.int64), np.empty(room, np.int64), np.empty(room, np.int64),
-            np.empty(room + 1, np.int64), np.empty(room + 1, np.uint64), np.empty(bodies, np.int64),
-            np.empty((room, 3), np.uint64), np.empty((POINT_COLUMNS, room)))
-
-
-@leaf
-def lay_out(x: np.ndarray, y: np.ndarray, inv_mass: np.ndarray, inv_inertia: np.ndarray, friction: np.ndarray,
-            ids: np.ndarray, table: np.ndarray, first: np.ndarray, order: np.ndarray, waves: int,
-            tally: np.ndarray, softness: np.ndarray, ends: np.ndarray, links: np.ndarray,
-            points: np.ndarray) -> None:
-    """The step's points in the order the passes visit them, with all a visit reads that does not change
-    within the step, found once: wave by wave (``order``, ``tally`` from ``wavefronts``), each wave's
-    manifolds' first points, then their second points; ``ends[v]``: where wave ``v``'s points end.
-
-    Per point its bodies and table row (``links``) and its anchors, normal and tangent effective masses,
-    friction and base separation (``contacts.prepare`` and ``substep.base_separations``, the same
-    arithmetic), its softness (``softness`` row 1 where a side is static: the ground or a static box) and
-    its impulses as ``recall`` left them in the table. The passes then read one row after the other."""
-    ground = x.shape[0]
-    p, begin = 0, 0
-    for v in range(waves):
-        most = 0
-        for j in range(begin, tally[v]):
-            most = max(most, first[order[j] + 1] - first[order[j]])
-        for q in range(most):
-            for j in range(begin, tally[v]):
-                k = first[order[j]] + q
-                if k >= first[order[j] + 1]:
-                    continue
-                a, b = ids[k, A], ids[k, B]
-                imb, iib = inv_mass[b], inv_inertia[b]
-                ima, iia = (inv_mass[a], inv_inertia[a]) if a >= 0 else (0.0, 0.0)
-                row = 1 if a < 0 or ima == 0.0 or imb == 0.0 else 0
-                nx, ny = table[k, NX], table[k, NY]
-                px, py = table[k, PX], table[k, PY]
-                rbx, rby = px - x[b], py - y[b]
-                if a >= 0:
-                    rax, ray, mu = px - x[a], py - y[a], np.sqrt(friction[a] * friction[b])
-                else:
-                    rax, ray, mu = 0.0, 0.0, friction[b]
-                links[p, L_A], links[p, L_B], links[p, L_ROW] = a if a >= 0 else ground, b, k
-                points[P_NX, p], points[P_NY, p] = nx, ny
-                points[P_RAX, p], points[P_RAY, p], points[P_RBX, p], points[P_RBY, p] = rax, ray, rbx, rby
-                points[P_KN, p] = effective_mass(ima, iia, rax, ray, imb, iib, rbx, rby, nx, ny)
-                points[P_KT, p] = effective_mass(ima, iia, rax, ray, imb, iib, rbx, rby, -ny, nx)
-                points[P_MU, p] = mu
-                points[P_BASE, p] = -table[k, DEPTH] - ((rbx - rax) * nx + (rby - ray) * ny)
-                points[P_BIAS, p], points[P_SCALE, p] = softness[row, 0], softness[row, 1]
-                points[P_LET_GO, p] = softness[row, 2]
-                points[P_PN, p], points[P_PT, p] = table[k, PN], table[k, PT]
-                p += 1
-        ends[v] = p
-        begin = tally[v]
-
-
-@leaf
-def give_back(table: np.ndarray, links: np.ndarray, points: np.ndarray, count: int) -> None:
-    """Each point's accumulated impulses back to its row of the table, where ``remember`` keeps them."""
-    for p in range(count):
-        k = links[p, L_ROW]
-        table[k, PN], table[k, PT] = points[P_PN, p], points[P_PT, p]
+            np.empty(room + 1, np.int64), np.empty(room + 1, np.uint64), np.empty(bodies, np.int64))
 
 
 @leaf
@@ -203,102 +135,6 @@ def integrate_moved(x: np.ndarray, y: np.ndarray, angle: np.ndarray, bodies: np.
         bodies[COS, i], bodies[SIN, i] = np.cos(turn), np.sin(turn)
 
 
-@leaf
-def velocity_at(bodies: np.ndarray, a: int, b: int, points: np.ndarray, p: int, dx: float, dy: float) -> float:
-    """``contacts.relative_velocity`` on the pass's layout: ``((v_B + w_B x r_B) - (v_A + w_A x r_A)) . d`` at
-    point ``p`` of bodies ``a`` and ``b``, the same arithmetic in the same order."""
-    ux = bodies[V_X, b] - bodies[V_W, b] * points[P_RBY, p]
-    uy = bodies[V_Y, b] + bodies[V_W, b] * points[P_RBX, p]
-    ux -= bodies[V_X, a] - bodies[V_W, a] * points[P_RAY, p]
-    uy -= bodies[V_Y, a] + bodies[V_W, a] * points[P_RAX, p]
-    return ux * dx + uy * dy
-
-
-@leaf
-def impulse_at(bodies: np.ndarray, a: int, b: int, points: np.ndarray, p: int, px: float, py: float,
-               ground: int) -> None:
-    """``contacts.apply_impulse`` on the pass's layout: the impulse ``(px, py)`` at point ``p`` on body ``b``
-    and its opposite on ``a`` (none on the ground)."""
-    bodies[V_X, b] += bodies[INV_M, b] * px
-    bodies[V_Y, b] += bodies[INV_M, b] * py
-    bodies[V_W, b] += bodies[INV_I, b] * (points[P_RBX, p] * py - points[P_RBY, p] * px)
-    if a != ground:
-        bodies[V_X, a] -= bodies[INV_M, a] * px
-        bodies[V_Y, a] -= bodies[INV_M, a] * py
-        bodies[V_W, a] -= bodies[INV_I, a] * (points[P_RAX, p] * py - points[P_RAY, p] * px)
-
-
-@leaf
-def soft_warm_start(bodies: np.ndarray, links: np.ndarray, points: np.ndarray, count: int) -> None:
-    """``contacts.warm_start`` on the pass's layout: every point's accumulated impulses applied to its bodies,
-    in the layout's order (which keeps each body's order of points, so the same sums)."""
-    ground = np.uint64(bodies.shape[1] - 1)
-    for p in range(np.uint64(count)):
-        pn, pt = points[P_PN, p], points[P_PT, p]
-        if pn != 0.0 or pt != 0.0:
-            nx, ny = points[P_NX, p], points[P_NY, p]
-            impulse_at(bodies, links[p, L_A], links[p, L_B], points, p, pn * nx - pt * ny, pn * ny + pt * nx, ground)
-
-
-@leaf
-def separation_at(bodies: np.ndarray, a: int, b: int, points: np.ndarray, p: int) -> float:
-    """``substep.separation`` on the pass's layout: the separation of point ``p`` now (m, negative: overlap),
-    from how far bodies ``a`` and ``b`` have moved and turned since the step began."""
-    r0x, r0y = points[P_RBX, p], points[P_RBY, p]
-    sx = bodies[D_X, b] + (bodies[COS, b] * r0x - bodies[SIN, b] * r0y)
-    sy = bodies[D_Y, b] + (bodies[SIN, b] * r0x + bodies[COS, b] * r0y)
-    r0x, r0y = points[P_RAX, p], points[P_RAY, p]
-    sx -= bodies[D_X, a] + (bodies[COS, a] * r0x - bodies[SIN, a] * r0y)
-    sy -= bodies[D_Y, a] + (bodies[SIN, a] * r0x + bodies[COS, a] * r0y)
-    return points[P_BASE, p] + sx * points[P_NX, p] + sy * points[P_NY, p]
-
-
-@leaf
-def soft_pass(bodies: np.ndarray, links: np.ndarray, points: np.ndarray, waves: int, ends: np.ndarray, h: float,
-              use_bias: bool, push_out: float) -> None:
-    """One pass over the points wave by wave (``wavefront``), normals first, then friction: within a wave
-    every manifold's first normal, then every second normal, then the frictions the same way. A manifold's
-    visits keep their order (its normals, then its frictions) and the manifolds of a wave share no body, so
-    this is the pass over the manifolds in table order to the bit, with each visit independent of the one
-    before it.
-
-    A point's separation is measured again from how far its bodies have moved and turned since the step
-    began. A point still apart may close its gap within the substep but not more. An overlapping point, with
-    the bias, asks for the spring's separating speed (at most ``push_out``), applies ``mass_scale`` of the
-    full impulse and lets go ``impulse_scale`` of what it holds; without the bias it only stops approach.
-    The normal total stays >= 0 and each point's friction total within ``mu`` times its normal total.
-    """
-    ground = np.uint64(bodies.shape[1] - 1)
-    begin = np.uint64(0)
-    for v in range(waves):
-        end = ends[v]
-        for p in range(begin, end):
-            a, b = links[p, L_A], links[p, L_B]
-            s = separation_at(bodies, a, b, points, p)
-            target, mass_scale, impulse_scale = 0.0, 1.0, 0.0
-            if s > 0.0:
-                target = -s / h
-            elif use_bias:
-                target = min(-points[P_BIAS, p] * s, push_out)
-                mass_scale, impulse_scale = points[P_SCALE, p], points[P_LET_GO, p]
-            nx, ny = points[P_NX, p], points[P_NY, p]
-            un = velocity_at(bodies, a, b, points, p, nx, ny)
-            old = points[P_PN, p]
-            total = max(old + points[P_KN, p] * mass_scale * (target - un) - impulse_scale * old, 0.0)
-            impulse_at(bodies, a, b, points, p, (total - old) * nx, (total - old) * ny, ground)
-            points[P_PN, p] = total
-        for p in range(begin, end):
-            a, b = links[p, L_A], links[p, L_B]
-            nx, ny = points[P_NX, p], points[P_NY, p]
-            limit = points[P_MU, p] * points[P_PN, p]
-            old = points[P_PT, p]
-            total = old - points[P_KT, p] * velocity_at(bodies, a, b, points, p, -ny, nx)
-            total = min(max(total, -limit), limit)
-            impulse_at(bodies, a, b, points, p, -(total - old) * ny, (total - old) * nx, ground)
-            points[P_PT, p] = total
-        begin = end
-
-
 @kernel
 def soft_step_advance(x: np.ndarray, y: np.ndarray, angle: np.ndarray, vx: np.ndarray, vy: np.ndarray,
                       w: np.ndarray, inv_mass: np.ndarray, inv_inertia: np.ndarray, hx: np.ndarray, hy: np.ndarray,
@@ -320,21 +156,25 @@ def soft_step_advance(x: np.ndarray, y: np.ndarray, angle: np.ndarray, vx: np.nd
         softness[0, 0], softness[0, 1], softness[0, 2] = soft(contact_hertz, damping_ratio[b], h)
         softness[1, 0], softness[1, 1], softness[1, 2] = soft(STATIC_HERTZ * contact_hertz, damping_ratio[b], h)
         ids, table = contact_workspace(keys.shape[1])
-        first, order, wave, tally, ends, latest, links, points = pass_workspace(ids.shape[0], n)
+        first, order, wave, tally, ends, latest = pass_workspace(ids.shape[0], n)
+        record, sides, rows = block_workspace(ids.shape[0] // 2 + 1)
         start = np.empty((n, 3))
         bodies = np.empty((BODY_COLUMNS, n + 1))
         ids, table, count = find_contacts(xb, yb, ab, hxb, hyb, im, speculative[b], ids, table)
         watched = applied.shape[1] > 0  # the step's impulses are summed only for a caller that reads them
         for _ in range(steps):
-            if points.shape[1] < ids.shape[0]:
-                first, order, wave, tally, ends, latest, links, points = pass_workspace(ids.shape[0], n)
+            if order.shape[0] < ids.shape[0]:
+                first, order, wave, tally, ends, latest = pass_workspace(ids.shape[0], n)
             table[:count, PN] = 0.0
             table[:count, PT] = 0.0
             if warm[b]:
                 recall(ids, table, count, keys[b], carried[b], held[b])
             m = manifold_starts(ids, count, first)
             waves = wavefronts(ids, first, m, latest, wave, tally, order)
-            lay_out(xb, yb, im, ii, mub, ids, table, first, order, waves, tally, softness, ends, links, points)
+            blocks = blocks_needed(tally, waves)
+            if sides.shape[0] < blocks * LANES:
+                record, sides, rows = block_workspace(blocks + blocks // 2)
+            lay_out(xb, yb, im, ii, mub, ids, table, first, order, waves, tally, softness, ends, sides, rows, record)
             for i in range(n):
                 start[i, 0], start[i, 1], start[i, 2] = xb[i], yb[i], ab[i]
             load_bodies(vxb, vyb, wb, im, ii, bodies)
@@ -342,15 +182,15 @@ def soft_step_advance(x: np.ndarray, y: np.ndarray, angle: np.ndarray, vx: np.nd
                 clear_applied(applied[b], count)
             for _ in range(substeps[b]):
                 body_gravity(bodies, n, g[b], h)
-                soft_warm_start(bodies, links, points, count)
-                soft_pass(bodies, links, points, waves, ends, h, True, push_out[b])
+                warm_start(bodies, sides, record, blocks)
+                soft_pass(bodies, sides, record, waves, ends, h, True, push_out[b])
                 integrate_moved(xb, yb, ab, bodies, start, h)
                 if relax[b]:
-                    soft_pass(bodies, links, points, waves, ends, h, False, push_out[b])
+                    soft_pass(bodies, sides, record, waves, ends, h, False, push_out[b])
                 if watched:
-                    add_applied(links[:, L_ROW], points[P_PN], points[P_PT], count, applied[b])
+                    add_applied(rows, record, blocks, applied[b])
             store_velocities(bodies, vxb, vyb, wb)
-            give_back(table, links, points, count)
+            give_back(table, rows, record, blocks)
             held[b] = remember(ids, table, count, keys[b], carried[b])
             ids, table, count = observed_contacts(xb, yb, ab, hxb, hyb, im, speculative[b], ids, table, dt[b],
                                                   last, peak, reach, touched, launch, b)

@@ -1,0 +1,356 @@
+"""The soft step's pass over a wave's manifolds several at a time, in the lanes of the processor's vectors.
+
+The manifolds of one wave (``wavefront``) share no body, so their visits commute exactly: they may be done
+side by side, and Box2D v3 does just that with the manifolds of one graph colour (``contact_solver.c``: each
+``b2ContactConstraintWide`` holds one manifold per lane of a SIMD register, 8 lanes of single floats with
+AVX2; the constraint data is written lane by lane once a step, with zero masses and impulses where a lane has
+no manifold or a manifold no second point, and each visit gathers the lanes' bodies' velocities into wide
+registers, solves, and scatters them back). This module does the same in double precision with numba:
+
+- once a step, ``lay_out`` writes each wave's manifolds in **blocks** of ``LANES``, one record of ``FIELDS``
+  x ``LANES`` floats per block, field by field, so a field of the block's lanes is ``LANES`` consecutive
+  numbers: what a visit reads that does not change within the step (masses, normal, anchors, effective
+  masses, friction, softness, base separation of both points) and the impulses;
+- each pass walks the blocks wave by wave and for a block **gathers** its lanes' bodies' velocities and
+  motion since the step began into the record, **solves** every lane's manifold (normals first, then
+  friction, a manifold's points in order, as the scalar pass does) in one loop over the lanes that reads and
+  writes only the record at fixed offsets, which LLVM turns into vector instructions, and **scatters** the
+  velocities back to the bodies.
+
+Each lane does the arithmetic of the scalar visit (``soft_step``'s module doc) in the same order and with the
+same roundings: no fused multiply-add (numba compiles without fastmath), and what a lane without a second
+point or without a movable side would change is kept by a select, not multiplied by zero (``0 * x`` is
+``-0.0`` or NaN for some ``x``). A pass therefore gives the numbers of the scalar pass to the bit, which gives
+those of visiting the manifolds in table order (``wavefront``).
+
+``LANES`` trades padding for width: a wave of ``c`` manifolds takes ``ceil(c / LANES)`` blocks, the last
+one partly empty, and a lane costs what a point pair does whether it holds a manifold or not; 4 lanes fill
+one AVX2 register of doubles. On a 20-row pyramid (400 manifolds in 57 waves) 4 lanes hold 400 manifolds
+in 129 blocks.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from stackx.kernel import inlined, kernel, leaf
+from stackx.solvers.planar.contacts import A, B, DEPTH, NX, NY, PN, PT, PX, PY, effective_mass
+
+LANES = 4  # manifolds a block solves side by side
+
+# a block's record, field by field, each field ``LANES`` numbers (one a lane). Per manifold, found once a
+# step: its bodies' inverse masses and inertias, friction, softness (bias rate, mass scale, impulse scale),
+# whether side ``A`` is a body the impulses move (not the ground), whether it has a second point
+F_IMA, F_IIA, F_IMB, F_IIB, F_MU, F_BIAS, F_SCALE, F_LET_GO, F_MOVES_A, F_TWO = range(10)
+# per point (the second point's fields ``POINT_FIELDS`` after the first's): normal, anchors, normal and
+# tangent effective masses, separation when found less what the anchors give along the normal, impulses
+F_NX, F_NY, F_RAX, F_RAY, F_RBX, F_RBY, F_KN, F_KT, F_BASE, F_PN, F_PT = range(10, 21)
+POINT_FIELDS = 11
+# gathered from the bodies for each pass: velocities of both sides, and their motion since the step began
+F_VAX, F_VAY, F_WA, F_VBX, F_VBY, F_WB, F_DXA, F_DYA, F_CA, F_SA, F_DXB, F_DYB, F_CB, F_SB = range(32, 46)
+FIELDS = 46
+BLOCK = FIELDS * LANES
+NONE = np.uint64(2 ** 62)  # the table row of a point slot that holds no point
+
+# the bodies as the passes read them, one row each and the ground's last: velocities, inverse mass and
+# inertia, and the motion since the step began (``substep.moved_body``: dx, dy, cosine and sine of the turn)
+V_X, V_Y, V_W, INV_M, INV_I, D_X, D_Y, COS, SIN = range(9)
+BODY_COLUMNS = 9
+
+
+@kernel
+def block_workspace(blocks: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Room for ``blocks`` blocks: ``(record, sides, rows)``: the records, each lane's two bodies, and each
+    lane's two points' table rows (``NONE`` where there is no point)."""
+    return np.empty(blocks * BLOCK), np.empty((blocks * LANES, 2), np.uint64), np.empty(blocks * LANES * 2, np.uint64)
+
+
+@leaf
+def blocks_needed(tally: np.ndarray, waves: int) -> int:
+    """Blocks of ``LANES`` manifolds the waves take (``tally`` from ``wavefronts``)."""
+    blocks, begin = 0, 0
+    for v in range(waves):
+        blocks += (tally[v] - begin + LANES - 1) // LANES
+        begin = tally[v]
+    return blocks
+
+
+@leaf
+def lay_out(x: np.ndarray, y: np.ndarray, inv_mass: np.ndarray, inv_inertia: np.ndarray, friction: np.ndarray,
+            ids: np.ndarray, table: np.ndarray, first: np.ndarray, order: np.ndarray, waves: int,
+            tally: np.ndarray, softness: np.ndarray, ends: np.ndarray, sides: np.ndarray, rows: np.ndarray,
+            record: np.ndarray) -> None:
+    """The step's manifolds in blocks, wave by wave (``order``, ``tally`` from ``wavefronts``), with all a
+    visit reads that does not change within the step, found once; ``ends[v]``: where wave ``v``'s blocks
+    end. The arithmetic of ``contacts.prepare`` and ``substep.base_separations``; softness row 1 where a side
+    is static (the ground or a static box); impulses as ``recall`` left them in the table. A lane without a
+    manifold has the ground (body ``n``) on both sides and zeros; a missing second point, zeros."""
+    ground = np.uint64(x.shape[0])
+    blk, begin = np.uint64(0), 0
+    for v in range(waves):
+        for j0 in range(begin, tally[v], LANES):
+            o = blk * np.uint64(BLOCK)
+            for f in range(BLOCK):
+                record[o + np.uint64(f)] = 0.0
+            for lane in range(LANES):
+                slot = blk * np.uint64(LANES) + np.uint64(lane)
+                sides[slot, 0], sides[slot, 1] = ground, ground
+                rows[np.uint64(2) * slot], rows[np.uint64(2) * slot + np.uint64(1)] = NONE, NONE
+                jj = j0 + lane
+                if jj >= tally[v]:
+                    continue
+                k0, k1 = first[order[jj]], first[order[jj] + 1]
+                a, b = ids[k0, A], ids[k0, B]
+                imb, iib = inv_mass[b], inv_inertia[b]
+                ima, iia = (inv_mass[a], inv_inertia[a]) if a >= 0 else (0.0, 0.0)
+                soft = 1 if a < 0 or ima == 0.0 or imb == 0.0 else 0
+                sides[slot, 0], sides[slot, 1] = np.uint64(a) if a >= 0 else ground, np.uint64(b)
+                at = o + np.uint64(lane)
+                record[at + np.uint64(F_IMA * LANES)], record[at + np.uint64(F_IIA * LANES)] = ima, iia
+                record[at + np.uint64(F_IMB * LANES)], record[at + np.uint64(F_IIB * LANES)] = imb, iib
+                record[at + np.uint64(F_MU * LANES)] = np.sqrt(friction[a] * friction[b]) if a >= 0 else friction[b]
+                record[at + np.uint64(F_BIAS * LANES)] = softness[soft, 0]
+                record[at + np.uint64(F_SCALE * LANES)] = softness[soft, 1]
+                record[at + np.uint64(F_LET_GO * LANES)] = softness[soft, 2]
+                record[at + np.uint64(F_MOVES_A * LANES)] = 1.0 if a >= 0 else 0.0
+                record[at + np.uint64(F_TWO * LANES)] = 1.0 if k1 - k0 > 1 else 0.0
+                for q in range(k1 - k0):
+                    k = k0 + q
+                    rows[np.uint64(2) * slot + np.uint64(q)] = np.uint64(k)
+                    nx, ny = table[k, NX], table[k, NY]
+                    px, py = table[k, PX], table[k, PY]
+                    rbx, rby = px - x[b], py - y[b]
+                    rax, ray = (px - x[a], py - y[a]) if a >= 0 else (0.0, 0.0)
+                    p = at + np.uint64(q * POINT_FIELDS * LANES)
+                    record[p + np.uint64(F_NX * LANES)], record[p + np.uint64(F_NY * LANES)] = nx, ny
+                    record[p + np.uint64(F_RAX * LANES)], record[p + np.uint64(F_RAY * LANES)] = rax, ray
+                    record[p + np.uint64(F_RBX * LANES)], record[p + np.uint64(F_RBY * LANES)] = rbx, rby
+                    record[p + np.uint64(F_KN * LANES)] = effective_mass(ima, iia, rax, ray, imb, iib, rbx, rby, nx, ny)
+                    record[p + np.uint64(F_KT * LANES)] = effective_mass(ima, iia, rax, ray, imb, iib, rbx, rby, -ny,
+                                                                         nx)
+                    record[p + np.uint64(F_BASE * LANES)] = -table[k, DEPTH] - ((rbx - rax) * nx + (rby - ray) * ny)
+                    record[p + np.uint64(F_PN * LANES)], record[p + np.uint64(F_PT * LANES)] = table[k, PN], table[k, PT]
+            blk += np.uint64(1)
+        ends[v] = blk
+        begin = tally[v]
+
+
+@leaf
+def give_back(table: np.ndarray, rows: np.ndarray, record: np.ndarray, blocks: int) -> None:
+    """Each point's accumulated impulses back to its row of the table, where ``remember`` keeps them."""
+    for slot in range(np.uint64(blocks * LANES * 2)):
+        k = rows[slot]
+        if k != NONE:
+            at = point_at(slot)
+            table[k, PN], table[k, PT] = record[at + np.uint64(F_PN * LANES)], record[at + np.uint64(F_PT * LANES)]
+
+
+@leaf
+def point_at(slot: np.uint64) -> np.uint64:
+    """Where point slot ``slot`` (lane ``slot // 2``, its point ``slot % 2``) starts in the records: add a
+    point field times ``LANES``."""
+    lane = slot // np.uint64(2)
+    blk = lane // np.uint64(LANES)
+    return (blk * np.uint64(BLOCK) + lane % np.uint64(LANES)
+            + (slot % np.uint64(2)) * np.uint64(POINT_FIELDS * LANES))
+
+
+@leaf
+def add_applied(rows: np.ndarray, record: np.ndarray, blocks: int, applied: np.ndarray) -> None:
+    """``applied.add_applied`` on the blocks: the end of a substep adds each point's accumulated impulses,
+    which the substep applied, to ``applied`` at the point's table row."""
+    for slot in range(np.uint64(blocks * LANES * 2)):
+        k = rows[slot]
+        if k < applied.shape[0]:
+            at = point_at(slot)
+            applied[k, 0] += record[at + np.uint64(F_PN * LANES)]
+            applied[k, 1] += record[at + np.uint64(F_PT * LANES)]
+
+
+@leaf
+def warm_start(bodies: np.ndarray, sides: np.ndarray, record: np.ndarray, blocks: int) -> None:
+    """``contacts.warm_start`` on the blocks: every point's accumulated impulses applied to its bodies, lane
+    by lane, a lane's points in order (which keeps each body's order of points, so the same sums)."""
+    ground = np.uint64(bodies.shape[1] - 1)
+    for slot in range(np.uint64(blocks * LANES)):
+        a, b = sides[slot, 0], sides[slot, 1]
+        if b == ground:
+            continue
+        at = (slot // np.uint64(LANES)) * np.uint64(BLOCK) + slot % np.uint64(LANES)
+        two = record[at + np.uint64(F_TWO * LANES)] != 0.0
+        for q in range(2 if two else 1):
+            p = at + np.uint64(q * POINT_FIELDS * LANES)
+            pn, pt = record[p + np.uint64(F_PN * LANES)], record[p + np.uint64(F_PT * LANES)]
+            if pn != 0.0 or pt != 0.0:
+                nx, ny = record[p + np.uint64(F_NX * LANES)], record[p + np.uint64(F_NY * LANES)]
+                px, py = pn * nx - pt * ny, pn * ny + pt * nx
+                bodies[V_X, b] += bodies[INV_M, b] * px
+                bodies[V_Y, b] += bodies[INV_M, b] * py
+                bodies[V_W, b] += bodies[INV_I, b] * (record[p + np.uint64(F_RBX * LANES)] * py
+                                                     - record[p + np.uint64(F_RBY * LANES)] * px)
+                if a != ground:
+                    bodies[V_X, a] -= bodies[INV_M, a] * px
+                    bodies[V_Y, a] -= bodies[INV_M, a] * py
+                    bodies[V_W, a] -= bodies[INV_I, a] * (record[p + np.uint64(F_RAX * LANES)] * py
+                                                         - record[p + np.uint64(F_RAY * LANES)] * px)
+
+
+@inlined
+def gather(bodies: np.ndarray, sides: np.ndarray, record: np.ndarray, blk: np.uint64) -> None:
+    """The block's lanes' bodies' velocities and motion since the step began, into its record."""
+    o = blk * np.uint64(BLOCK)
+    for lane in range(np.uint64(LANES)):
+        a, b = sides[blk * np.uint64(LANES) + lane, 0], sides[blk * np.uint64(LANES) + lane, 1]
+        at = o + lane
+        record[at + np.uint64(F_VAX * LANES)] = bodies[V_X, a]
+        record[at + np.uint64(F_VAY * LANES)] = bodies[V_Y, a]
+        record[at + np.uint64(F_WA * LANES)] = bodies[V_W, a]
+        record[at + np.uint64(F_VBX * LANES)] = bodies[V_X, b]
+        record[at + np.uint64(F_VBY * LANES)] = bodies[V_Y, b]
+        record[at + np.uint64(F_WB * LANES)] = bodies[V_W, b]
+        record[at + np.uint64(F_DXA * LANES)] = bodies[D_X, a]
+        record[at + np.uint64(F_DYA * LANES)] = bodies[D_Y, a]
+        record[at + np.uint64(F_CA * LANES)] = bodies[COS, a]
+        record[at + np.uint64(F_SA * LANES)] = bodies[SIN, a]
+        record[at + np.uint64(F_DXB * LANES)] = bodies[D_X, b]
+        record[at + np.uint64(F_DYB * LANES)] = bodies[D_Y, b]
+        record[at + np.uint64(F_CB * LANES)] = bodies[COS, b]
+        record[at + np.uint64(F_SB * LANES)] = bodies[SIN, b]
+
+
+@inlined
+def scatter(bodies: np.ndarray, sides: np.ndarray, record: np.ndarray, blk: np.uint64) -> None:
+    """The block's lanes' velocities back to their bodies; nothing to the ground."""
+    ground = np.uint64(bodies.shape[1] - 1)
+    o = blk * np.uint64(BLOCK)
+    for lane in range(np.uint64(LANES)):
+        a, b = sides[blk * np.uint64(LANES) + lane, 0], sides[blk * np.uint64(LANES) + lane, 1]
+        at = o + lane
+        if b != ground:
+            bodies[V_X, b] = record[at + np.uint64(F_VBX * LANES)]
+            bodies[V_Y, b] = record[at + np.uint64(F_VBY * LANES)]
+            bodies[V_W, b] = record[at + np.uint64(F_WB * LANES)]
+        if a != ground:
+            bodies[V_X, a] = record[at + np.uint64(F_VAX * LANES)]
+            bodies[V_Y, a] = record[at + np.uint64(F_VAY * LANES)]
+            bodies[V_W, a] = record[at + np.uint64(F_WA * LANES)]
+
+
+@inlined
+def normal_visits(record: np.ndarray, begin: np.uint64, end: np.uint64, q: int, h: float, use_bias: bool,
+                  push_out: float) -> None:
+    """Point ``q``'s normal visit in every lane of blocks ``begin`` to ``end`` (``soft_step``'s visit, the same
+    arithmetic in the same order): the separation measured again from the bodies' motion since the step
+    began, the soft or speculative target, the accumulated normal impulse clamped at 0 and applied. A lane
+    reads and writes its own numbers at fixed offsets from its block's start, and what a lane without the
+    point or without a movable side ``A`` would change is kept by a select: LLVM does the lanes at once in
+    vector registers."""
+    for blk in range(begin, end):
+        o = blk * np.uint64(BLOCK)
+        for lane in range(np.uint64(LANES)):
+            at = o + lane
+            p = at + np.uint64(q * POINT_FIELDS * LANES)
+            vax, vay, wa = record[at + np.uint64(F_VAX * LANES)], record[at + np.uint64(F_VAY * LANES)], record[at + np.uint64(F_WA * LANES)]
+            vbx, vby, wb = record[at + np.uint64(F_VBX * LANES)], record[at + np.uint64(F_VBY * LANES)], record[at + np.uint64(F_WB * LANES)]
+            nx, ny = record[p + np.uint64(F_NX * LANES)], record[p + np.uint64(F_NY * LANES)]
+            rax, ray = record[p + np.uint64(F_RAX * LANES)], record[p + np.uint64(F_RAY * LANES)]
+            rbx, rby = record[p + np.uint64(F_RBX * LANES)], record[p + np.uint64(F_RBY * LANES)]
+            ca, sa = record[at + np.uint64(F_CA * LANES)], record[at + np.uint64(F_SA * LANES)]
+            cb, sb = record[at + np.uint64(F_CB * LANES)], record[at + np.uint64(F_SB * LANES)]
+            sx = record[at + np.uint64(F_DXB * LANES)] + (cb * rbx - sb * rby)
+            sy = record[at + np.uint64(F_DYB * LANES)] + (sb * rbx + cb * rby)
+            sx -= record[at + np.uint64(F_DXA * LANES)] + (ca * rax - sa * ray)
+            sy -= record[at + np.uint64(F_DYA * LANES)] + (sa * rax + ca * ray)
+            s = record[p + np.uint64(F_BASE * LANES)] + sx * nx + sy * ny
+            target, mass_scale, impulse_scale = 0.0, 1.0, 0.0
+            if s > 0.0:
+                target = -s / h
+            elif use_bias:
+                target = min(-record[at + np.uint64(F_BIAS * LANES)] * s, push_out)
+                mass_scale = record[at + np.uint64(F_SCALE * LANES)]
+                impulse_scale = record[at + np.uint64(F_LET_GO * LANES)]
+            ux = vbx - wb * rby
+            uy = vby + wb * rbx
+            ux -= vax - wa * ray
+            uy -= vay + wa * rax
+            un = ux * nx + uy * ny
+            old = record[p + np.uint64(F_PN * LANES)]
+            total = max(old + record[p + np.uint64(F_KN * LANES)] * mass_scale * (target - un) - impulse_scale * old,
+                        0.0)
+            keep = q == 0 or record[at + np.uint64(F_TWO * LANES)] != 0.0
+            apply(record, at, p, (total - old) * nx, (total - old) * ny, keep)
+            record[p + np.uint64(F_PN * LANES)] = total if keep else old
+
+
+@inlined
+def friction_visits(record: np.ndarray, begin: np.uint64, end: np.uint64, q: int) -> None:
+    """Point ``q``'s friction visit in every lane of blocks ``begin`` to ``end``, as ``normal_visits`` does its
+    normal: the accumulated friction impulse within ``mu`` times the point's normal impulse, applied."""
+    for blk in range(begin, end):
+        o = blk * np.uint64(BLOCK)
+        for lane in range(np.uint64(LANES)):
+            at = o + lane
+            p = at + np.uint64(q * POINT_FIELDS * LANES)
+            vax, vay, wa = record[at + np.uint64(F_VAX * LANES)], record[at + np.uint64(F_VAY * LANES)], record[at + np.uint64(F_WA * LANES)]
+            vbx, vby, wb = record[at + np.uint64(F_VBX * LANES)], record[at + np.uint64(F_VBY * LANES)], record[at + np.uint64(F_WB * LANES)]
+            nx, ny = record[p + np.uint64(F_NX * LANES)], record[p + np.uint64(F_NY * LANES)]
+            rax, ray = record[p + np.uint64(F_RAX * LANES)], record[p + np.uint64(F_RAY * LANES)]
+            rbx, rby = record[p + np.uint64(F_RBX * LANES)], record[p + np.uint64(F_RBY * LANES)]
+            limit = record[at + np.uint64(F_MU * LANES)] * record[p + np.uint64(F_PN * LANES)]
+            old = record[p + np.uint64(F_PT * LANES)]
+            dx, dy = -ny, nx
+            ux = vbx - wb * rby
+            uy = vby + wb * rbx
+            ux -= vax - wa * ray
+            uy -= vay + wa * rax
+            total = old - record[p + np.uint64(F_KT * LANES)] * (ux * dx + uy * dy)
+            total = min(max(total, -limit), limit)
+            keep = q == 0 or record[at + np.uint64(F_TWO * LANES)] != 0.0
+            apply(record, at, p, -(total - old) * ny, (total - old) * nx, keep)
+            record[p + np.uint64(F_PT * LANES)] = total if keep else old
+
+
+@inlined
+def apply(record: np.ndarray, at: np.uint64, p: np.uint64, px: float, py: float, keep: bool) -> None:
+    """``soft_step.impulse_at`` on a lane: the impulse ``(px, py)`` at the point whose fields start at ``p`` on
+    side ``B`` and its opposite on side ``A``, where the lane has the point (``keep``) and, for ``A``, where
+    ``A`` is a body."""
+    vbx, vby, wb = record[at + np.uint64(F_VBX * LANES)], record[at + np.uint64(F_VBY * LANES)], record[at + np.uint64(F_WB * LANES)]
+    nvbx = vbx + record[at + np.uint64(F_IMB * LANES)] * px
+    nvby = vby + record[at + np.uint64(F_IMB * LANES)] * py
+    nwb = wb + record[at + np.uint64(F_IIB * LANES)] * (record[p + np.uint64(F_RBX * LANES)] * py
+                                                       - record[p + np.uint64(F_RBY * LANES)] * px)
+    record[at + np.uint64(F_VBX * LANES)] = nvbx if keep else vbx
+    record[at + np.uint64(F_VBY * LANES)] = nvby if keep else vby
+    record[at + np.uint64(F_WB * LANES)] = nwb if keep else wb
+    vax, vay, wa = record[at + np.uint64(F_VAX * LANES)], record[at + np.uint64(F_VAY * LANES)], record[at + np.uint64(F_WA * LANES)]
+    nvax = vax - record[at + np.uint64(F_IMA * LANES)] * px
+    nvay = vay - record[at + np.uint64(F_IMA * LANES)] * py
+    nwa = wa - record[at + np.uint64(F_IIA * LANES)] * (record[p + np.uint64(F_RAX * LANES)] * py
+                                                       - record[p + np.uint64(F_RAY * LANES)] * px)
+    moves = keep and record[at + np.uint64(F_MOVES_A * LANES)] != 0.0
+    record[at + np.uint64(F_VAX * LANES)] = nvax if moves else vax
+    record[at + np.uint64(F_VAY * LANES)] = nvay if moves else vay
+    record[at + np.uint64(F_WA * LANES)] = nwa if moves else wa
+
+
+@leaf
+def soft_pass(bodies: np.ndarray, sides: np.ndarray, record: np.ndarray, waves: int, ends: np.ndarray, h: float,
+              use_bias: bool, push_out: float) -> None:
+    """One pass over the blocks wave by wave: the wave's bodies gathered into its blocks, every lane's first
+    normal, then every second normal, then the frictions the same way (each a loop over the wave's blocks
+    and their lanes whose visits are independent of each other, so the processor overlaps them), and the
+    velocities scattered back. A manifold's visits keep their order and the blocks of a wave share no body,
+    so this is the scalar pass to the bit."""
+    begin = np.uint64(0)
+    for v in range(waves):
+        end = ends[v]
+        for blk in range(begin, end):
+            gather(bodies, sides, record, blk)
+        normal_visits(record, begin, end, 0, h, use_bias, push_out)
+        normal_visits(record, begin, end, 1, h, use_bias, push_out)
+        friction_visits(record, begin, end, 0)
+        friction_visits(record, begin, end, 1)
+        for blk in range(begin, end):
+            scatter(bodies, sides, record, blk)
+        begin = end
