@@ -56,7 +56,7 @@ from stackx.solvers.planar.applied import clear_applied
 from stackx.solvers.planar.base import PlanarMemorySolver, StepImpulses
 from stackx.solvers.planar.contacts import PN, PT, contact_workspace, find_contacts, observed_contacts, recall, remember
 from stackx.solvers.planar.wavefront import manifold_starts, wavefronts
-from stackx.solvers.planar.wide import (BODY_COLUMNS, COS, D_X, D_Y, INV_I, INV_M, LANES, SIN, V_W, V_X, V_Y,
+from stackx.solvers.planar.wide import (BODY_COLUMNS, COS, D_X, D_Y, LANES, SIN, V_W, V_X, V_Y,
                                         add_applied, block_workspace, blocks_needed, give_back, lay_out, soft_pass,
                                         warm_start)
 from stackx.solvers.column.soft_step import STATIC_HERTZ, SoftStepParams, soft
@@ -90,34 +90,32 @@ def pass_workspace(room: int, bodies: int) -> tuple[np.ndarray, ...]:
 
 
 @leaf
-def load_bodies(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, inv_mass: np.ndarray, inv_inertia: np.ndarray,
-                bodies: np.ndarray) -> None:
-    """The bodies' rows as a step begins: velocities and inverse masses, not moved yet; the ground's row
-    (last) all zeros and no turn. The ground's zeros enter a visit's sums as ``x - 0.0``, which is ``x``, so a
-    visit reads the ground as a body without a test and gets the numbers of skipping it; nothing writes it."""
+def load_bodies(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, bodies: np.ndarray) -> None:
+    """The bodies' rows as a step begins: velocities, not moved yet; the ground's row (last) all zeros and no
+    turn. The ground's zeros enter a visit's sums as ``x - 0.0``, which is ``x``, so a visit reads the ground
+    as a body without a test and gets the numbers of skipping it; nothing writes it."""
     n = vx.shape[0]
     for i in range(n + 1):
         if i < n:
-            bodies[V_X, i], bodies[V_Y, i], bodies[V_W, i] = vx[i], vy[i], w[i]
-            bodies[INV_M, i], bodies[INV_I, i] = inv_mass[i], inv_inertia[i]
+            bodies[i, V_X], bodies[i, V_Y], bodies[i, V_W] = vx[i], vy[i], w[i]
         else:
-            bodies[V_X, i], bodies[V_Y, i], bodies[V_W, i], bodies[INV_M, i], bodies[INV_I, i] = 0.0, 0.0, 0.0, 0.0, 0.0
-        bodies[D_X, i], bodies[D_Y, i], bodies[COS, i], bodies[SIN, i] = 0.0, 0.0, 1.0, 0.0
+            bodies[i, V_X], bodies[i, V_Y], bodies[i, V_W] = 0.0, 0.0, 0.0
+        bodies[i, D_X], bodies[i, D_Y], bodies[i, COS], bodies[i, SIN] = 0.0, 0.0, 1.0, 0.0
 
 
 @leaf
 def store_velocities(bodies: np.ndarray, vx: np.ndarray, vy: np.ndarray, w: np.ndarray) -> None:
     """The velocities the step ends with, back to the state."""
     for i in range(vx.shape[0]):
-        vx[i], vy[i], w[i] = bodies[V_X, i], bodies[V_Y, i], bodies[V_W, i]
+        vx[i], vy[i], w[i] = bodies[i, V_X], bodies[i, V_Y], bodies[i, V_W]
 
 
 @leaf
-def body_gravity(bodies: np.ndarray, n: int, g: float, h: float) -> None:
+def body_gravity(bodies: np.ndarray, inv_mass: np.ndarray, g: float, h: float) -> None:
     """``contacts.gravity`` on the bodies' rows: ``vy += g h`` for every movable body."""
-    for i in range(n):
-        if bodies[INV_M, i] > 0.0:
-            bodies[V_Y, i] += g * h
+    for i in range(inv_mass.shape[0]):
+        if inv_mass[i] > 0.0:
+            bodies[i, V_Y] += g * h
 
 
 @leaf
@@ -127,12 +125,12 @@ def integrate_moved(x: np.ndarray, y: np.ndarray, angle: np.ndarray, bodies: np.
     and angles move with the velocities over ``h``, and each body's row learns how far it has come since the
     step began (``start``)."""
     for i in range(x.shape[0]):
-        x[i] += bodies[V_X, i] * h
-        y[i] += bodies[V_Y, i] * h
-        angle[i] += bodies[V_W, i] * h
-        bodies[D_X, i], bodies[D_Y, i] = x[i] - start[i, 0], y[i] - start[i, 1]
+        x[i] += bodies[i, V_X] * h
+        y[i] += bodies[i, V_Y] * h
+        angle[i] += bodies[i, V_W] * h
+        bodies[i, D_X], bodies[i, D_Y] = x[i] - start[i, 0], y[i] - start[i, 1]
         turn = angle[i] - start[i, 2]
-        bodies[COS, i], bodies[SIN, i] = np.cos(turn), np.sin(turn)
+        bodies[i, COS], bodies[i, SIN] = np.cos(turn), np.sin(turn)
 
 
 @kernel
@@ -159,7 +157,7 @@ def soft_step_advance(x: np.ndarray, y: np.ndarray, angle: np.ndarray, vx: np.nd
         first, order, wave, tally, ends, latest = pass_workspace(ids.shape[0], n)
         record, sides, rows = block_workspace(ids.shape[0] // 2 + 1)
         start = np.empty((n, 3))
-        bodies = np.empty((BODY_COLUMNS, n + 1))
+        bodies = np.empty((n + 1, BODY_COLUMNS))
         ids, table, count = find_contacts(xb, yb, ab, hxb, hyb, im, speculative[b], ids, table)
         watched = applied.shape[1] > 0  # the step's impulses are summed only for a caller that reads them
         for _ in range(steps):
@@ -177,11 +175,11 @@ def soft_step_advance(x: np.ndarray, y: np.ndarray, angle: np.ndarray, vx: np.nd
             lay_out(xb, yb, im, ii, mub, ids, table, first, order, waves, tally, softness, ends, sides, rows, record)
             for i in range(n):
                 start[i, 0], start[i, 1], start[i, 2] = xb[i], yb[i], ab[i]
-            load_bodies(vxb, vyb, wb, im, ii, bodies)
+            load_bodies(vxb, vyb, wb, bodies)
             if watched:
                 clear_applied(applied[b], count)
             for _ in range(substeps[b]):
-                body_gravity(bodies, n, g[b], h)
+                body_gravity(bodies, im, g[b], h)
                 warm_start(bodies, sides, record, blocks)
                 soft_pass(bodies, sides, record, waves, ends, h, True, push_out[b])
                 integrate_moved(xb, yb, ab, bodies, start, h)

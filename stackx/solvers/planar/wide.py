@@ -38,24 +38,27 @@ from stackx.solvers.planar.contacts import A, B, DEPTH, NX, NY, PN, PT, PX, PY, 
 
 LANES = 4  # manifolds a block solves side by side
 
-# a block's record, field by field, each field ``LANES`` numbers (one a lane). Per manifold, found once a
-# step: its bodies' inverse masses and inertias, friction, softness (bias rate, mass scale, impulse scale),
-# whether side ``A`` is a body the impulses move (not the ground), whether it has a second point
-F_IMA, F_IIA, F_IMB, F_IIB, F_MU, F_BIAS, F_SCALE, F_LET_GO, F_MOVES_A, F_TWO = range(10)
-# per point (the second point's fields ``POINT_FIELDS`` after the first's): normal, anchors, normal and
-# tangent effective masses, separation when found less what the anchors give along the normal, impulses
-F_NX, F_NY, F_RAX, F_RAY, F_RBX, F_RBY, F_KN, F_KT, F_BASE, F_PN, F_PT = range(10, 21)
-POINT_FIELDS = 11
-# gathered from the bodies for each pass: velocities of both sides, and their motion since the step began
-F_VAX, F_VAY, F_WA, F_VBX, F_VBY, F_WB, F_DXA, F_DYA, F_CA, F_SA, F_DXB, F_DYB, F_CB, F_SB = range(32, 46)
+# a block's record, field by field, each field ``LANES`` numbers (one a lane); the names are each field's
+# offset from the block's start. Per manifold, found once a step: its bodies' inverse masses and inertias,
+# friction, softness (bias rate, mass scale, impulse scale), whether side ``A`` is a body the impulses move
+# (not the ground) and whether it has a second point; then per point (the second point's fields ``SECOND``
+# after the first's) its normal, anchors, normal and tangent effective masses, separation when found less
+# what the anchors give along the normal, and impulses; then, gathered from the bodies for each pass, the
+# velocities of both sides and their motion since the step began
 FIELDS = 46
 BLOCK = FIELDS * LANES
+(R_IMA, R_IIA, R_IMB, R_IIB, R_MU, R_BIAS, R_SCALE, R_LET_GO, R_MOVES_A, R_TWO,
+ R_NX, R_NY, R_RAX, R_RAY, R_RBX, R_RBY, R_KN, R_KT, R_BASE, R_PN, R_PT) = (np.uint64(f * LANES) for f in range(21))
+SECOND = np.uint64(11 * LANES)
+(R_VAX, R_VAY, R_WA, R_VBX, R_VBY, R_WB, R_DXA, R_DYA, R_CA, R_SA, R_DXB, R_DYB, R_CB, R_SB) = (
+    np.uint64(f * LANES) for f in range(32, FIELDS))
 NONE = np.uint64(2 ** 62)  # the table row of a point slot that holds no point
 
-# the bodies as the passes read them, one row each and the ground's last: velocities, inverse mass and
-# inertia, and the motion since the step began (``substep.moved_body``: dx, dy, cosine and sine of the turn)
-V_X, V_Y, V_W, INV_M, INV_I, D_X, D_Y, COS, SIN = range(9)
-BODY_COLUMNS = 9
+# the bodies as the passes read them, one row each and the ground's last: velocities and the motion since the
+# step began (``substep.moved_body``: dx, dy, cosine and sine of the turn), padded to 64 bytes, so a body a
+# block gathers is one cache line
+V_X, V_Y, V_W, D_X, D_Y, COS, SIN = range(7)
+BODY_COLUMNS = 8
 
 
 @kernel
@@ -106,14 +109,14 @@ def lay_out(x: np.ndarray, y: np.ndarray, inv_mass: np.ndarray, inv_inertia: np.
                 soft = 1 if a < 0 or ima == 0.0 or imb == 0.0 else 0
                 sides[slot, 0], sides[slot, 1] = np.uint64(a) if a >= 0 else ground, np.uint64(b)
                 at = o + np.uint64(lane)
-                record[at + np.uint64(F_IMA * LANES)], record[at + np.uint64(F_IIA * LANES)] = ima, iia
-                record[at + np.uint64(F_IMB * LANES)], record[at + np.uint64(F_IIB * LANES)] = imb, iib
-                record[at + np.uint64(F_MU * LANES)] = np.sqrt(friction[a] * friction[b]) if a >= 0 else friction[b]
-                record[at + np.uint64(F_BIAS * LANES)] = softness[soft, 0]
-                record[at + np.uint64(F_SCALE * LANES)] = softness[soft, 1]
-                record[at + np.uint64(F_LET_GO * LANES)] = softness[soft, 2]
-                record[at + np.uint64(F_MOVES_A * LANES)] = 1.0 if a >= 0 else 0.0
-                record[at + np.uint64(F_TWO * LANES)] = 1.0 if k1 - k0 > 1 else 0.0
+                record[at + R_IMA], record[at + R_IIA] = ima, iia
+                record[at + R_IMB], record[at + R_IIB] = imb, iib
+                record[at + R_MU] = np.sqrt(friction[a] * friction[b]) if a >= 0 else friction[b]
+                record[at + R_BIAS] = softness[soft, 0]
+                record[at + R_SCALE] = softness[soft, 1]
+                record[at + R_LET_GO] = softness[soft, 2]
+                record[at + R_MOVES_A] = 1.0 if a >= 0 else 0.0
+                record[at + R_TWO] = 1.0 if k1 - k0 > 1 else 0.0
                 for q in range(k1 - k0):
                     k = k0 + q
                     rows[np.uint64(2) * slot + np.uint64(q)] = np.uint64(k)
@@ -121,15 +124,15 @@ def lay_out(x: np.ndarray, y: np.ndarray, inv_mass: np.ndarray, inv_inertia: np.
                     px, py = table[k, PX], table[k, PY]
                     rbx, rby = px - x[b], py - y[b]
                     rax, ray = (px - x[a], py - y[a]) if a >= 0 else (0.0, 0.0)
-                    p = at + np.uint64(q * POINT_FIELDS * LANES)
-                    record[p + np.uint64(F_NX * LANES)], record[p + np.uint64(F_NY * LANES)] = nx, ny
-                    record[p + np.uint64(F_RAX * LANES)], record[p + np.uint64(F_RAY * LANES)] = rax, ray
-                    record[p + np.uint64(F_RBX * LANES)], record[p + np.uint64(F_RBY * LANES)] = rbx, rby
-                    record[p + np.uint64(F_KN * LANES)] = effective_mass(ima, iia, rax, ray, imb, iib, rbx, rby, nx, ny)
-                    record[p + np.uint64(F_KT * LANES)] = effective_mass(ima, iia, rax, ray, imb, iib, rbx, rby, -ny,
+                    p = at + np.uint64(q) * SECOND
+                    record[p + R_NX], record[p + R_NY] = nx, ny
+                    record[p + R_RAX], record[p + R_RAY] = rax, ray
+                    record[p + R_RBX], record[p + R_RBY] = rbx, rby
+                    record[p + R_KN] = effective_mass(ima, iia, rax, ray, imb, iib, rbx, rby, nx, ny)
+                    record[p + R_KT] = effective_mass(ima, iia, rax, ray, imb, iib, rbx, rby, -ny,
                                                                          nx)
-                    record[p + np.uint64(F_BASE * LANES)] = -table[k, DEPTH] - ((rbx - rax) * nx + (rby - ray) * ny)
-                    record[p + np.uint64(F_PN * LANES)], record[p + np.uint64(F_PT * LANES)] = table[k, PN], table[k, PT]
+                    record[p + R_BASE] = -table[k, DEPTH] - ((rbx - rax) * nx + (rby - ray) * ny)
+                    record[p + R_PN], record[p + R_PT] = table[k, PN], table[k, PT]
             blk += np.uint64(1)
         ends[v] = blk
         begin = tally[v]
@@ -142,7 +145,7 @@ def give_back(table: np.ndarray, rows: np.ndarray, record: np.ndarray, blocks: i
         k = rows[slot]
         if k != NONE:
             at = point_at(slot)
-            table[k, PN], table[k, PT] = record[at + np.uint64(F_PN * LANES)], record[at + np.uint64(F_PT * LANES)]
+            table[k, PN], table[k, PT] = record[at + R_PN], record[at + R_PT]
 
 
 @leaf
@@ -152,7 +155,7 @@ def point_at(slot: np.uint64) -> np.uint64:
     lane = slot // np.uint64(2)
     blk = lane // np.uint64(LANES)
     return (blk * np.uint64(BLOCK) + lane % np.uint64(LANES)
-            + (slot % np.uint64(2)) * np.uint64(POINT_FIELDS * LANES))
+            + (slot % np.uint64(2)) * SECOND)
 
 
 @leaf
@@ -163,36 +166,36 @@ def add_applied(rows: np.ndarray, record: np.ndarray, blocks: int, applied: np.n
         k = rows[slot]
         if k < applied.shape[0]:
             at = point_at(slot)
-            applied[k, 0] += record[at + np.uint64(F_PN * LANES)]
-            applied[k, 1] += record[at + np.uint64(F_PT * LANES)]
+            applied[k, 0] += record[at + R_PN]
+            applied[k, 1] += record[at + R_PT]
 
 
 @leaf
 def warm_start(bodies: np.ndarray, sides: np.ndarray, record: np.ndarray, blocks: int) -> None:
     """``contacts.warm_start`` on the blocks: every point's accumulated impulses applied to its bodies, lane
     by lane, a lane's points in order (which keeps each body's order of points, so the same sums)."""
-    ground = np.uint64(bodies.shape[1] - 1)
+    ground = np.uint64(bodies.shape[0] - 1)
     for slot in range(np.uint64(blocks * LANES)):
         a, b = sides[slot, 0], sides[slot, 1]
         if b == ground:
             continue
         at = (slot // np.uint64(LANES)) * np.uint64(BLOCK) + slot % np.uint64(LANES)
-        two = record[at + np.uint64(F_TWO * LANES)] != 0.0
+        two = record[at + R_TWO] != 0.0
         for q in range(2 if two else 1):
-            p = at + np.uint64(q * POINT_FIELDS * LANES)
-            pn, pt = record[p + np.uint64(F_PN * LANES)], record[p + np.uint64(F_PT * LANES)]
+            p = at + np.uint64(q) * SECOND
+            pn, pt = record[p + R_PN], record[p + R_PT]
             if pn != 0.0 or pt != 0.0:
-                nx, ny = record[p + np.uint64(F_NX * LANES)], record[p + np.uint64(F_NY * LANES)]
+                nx, ny = record[p + R_NX], record[p + R_NY]
                 px, py = pn * nx - pt * ny, pn * ny + pt * nx
-                bodies[V_X, b] += bodies[INV_M, b] * px
-                bodies[V_Y, b] += bodies[INV_M, b] * py
-                bodies[V_W, b] += bodies[INV_I, b] * (record[p + np.uint64(F_RBX * LANES)] * py
-                                                     - record[p + np.uint64(F_RBY * LANES)] * px)
+                bodies[b, V_X] += record[at + R_IMB] * px
+                bodies[b, V_Y] += record[at + R_IMB] * py
+                bodies[b, V_W] += record[at + R_IIB] * (record[p + R_RBX] * py
+                                                     - record[p + R_RBY] * px)
                 if a != ground:
-                    bodies[V_X, a] -= bodies[INV_M, a] * px
-                    bodies[V_Y, a] -= bodies[INV_M, a] * py
-                    bodies[V_W, a] -= bodies[INV_I, a] * (record[p + np.uint64(F_RAX * LANES)] * py
-                                                         - record[p + np.uint64(F_RAY * LANES)] * px)
+                    bodies[a, V_X] -= record[at + R_IMA] * px
+                    bodies[a, V_Y] -= record[at + R_IMA] * py
+                    bodies[a, V_W] -= record[at + R_IIA] * (record[p + R_RAX] * py
+                                                         - record[p + R_RAY] * px)
 
 
 @inlined
@@ -202,38 +205,38 @@ def gather(bodies: np.ndarray, sides: np.ndarray, record: np.ndarray, blk: np.ui
     for lane in range(np.uint64(LANES)):
         a, b = sides[blk * np.uint64(LANES) + lane, 0], sides[blk * np.uint64(LANES) + lane, 1]
         at = o + lane
-        record[at + np.uint64(F_VAX * LANES)] = bodies[V_X, a]
-        record[at + np.uint64(F_VAY * LANES)] = bodies[V_Y, a]
-        record[at + np.uint64(F_WA * LANES)] = bodies[V_W, a]
-        record[at + np.uint64(F_VBX * LANES)] = bodies[V_X, b]
-        record[at + np.uint64(F_VBY * LANES)] = bodies[V_Y, b]
-        record[at + np.uint64(F_WB * LANES)] = bodies[V_W, b]
-        record[at + np.uint64(F_DXA * LANES)] = bodies[D_X, a]
-        record[at + np.uint64(F_DYA * LANES)] = bodies[D_Y, a]
-        record[at + np.uint64(F_CA * LANES)] = bodies[COS, a]
-        record[at + np.uint64(F_SA * LANES)] = bodies[SIN, a]
-        record[at + np.uint64(F_DXB * LANES)] = bodies[D_X, b]
-        record[at + np.uint64(F_DYB * LANES)] = bodies[D_Y, b]
-        record[at + np.uint64(F_CB * LANES)] = bodies[COS, b]
-        record[at + np.uint64(F_SB * LANES)] = bodies[SIN, b]
+        record[at + R_VAX] = bodies[a, V_X]
+        record[at + R_VAY] = bodies[a, V_Y]
+        record[at + R_WA] = bodies[a, V_W]
+        record[at + R_VBX] = bodies[b, V_X]
+        record[at + R_VBY] = bodies[b, V_Y]
+        record[at + R_WB] = bodies[b, V_W]
+        record[at + R_DXA] = bodies[a, D_X]
+        record[at + R_DYA] = bodies[a, D_Y]
+        record[at + R_CA] = bodies[a, COS]
+        record[at + R_SA] = bodies[a, SIN]
+        record[at + R_DXB] = bodies[b, D_X]
+        record[at + R_DYB] = bodies[b, D_Y]
+        record[at + R_CB] = bodies[b, COS]
+        record[at + R_SB] = bodies[b, SIN]
 
 
 @inlined
 def scatter(bodies: np.ndarray, sides: np.ndarray, record: np.ndarray, blk: np.uint64) -> None:
     """The block's lanes' velocities back to their bodies; nothing to the ground."""
-    ground = np.uint64(bodies.shape[1] - 1)
+    ground = np.uint64(bodies.shape[0] - 1)
     o = blk * np.uint64(BLOCK)
     for lane in range(np.uint64(LANES)):
         a, b = sides[blk * np.uint64(LANES) + lane, 0], sides[blk * np.uint64(LANES) + lane, 1]
         at = o + lane
         if b != ground:
-            bodies[V_X, b] = record[at + np.uint64(F_VBX * LANES)]
-            bodies[V_Y, b] = record[at + np.uint64(F_VBY * LANES)]
-            bodies[V_W, b] = record[at + np.uint64(F_WB * LANES)]
+            bodies[b, V_X] = record[at + R_VBX]
+            bodies[b, V_Y] = record[at + R_VBY]
+            bodies[b, V_W] = record[at + R_WB]
         if a != ground:
-            bodies[V_X, a] = record[at + np.uint64(F_VAX * LANES)]
-            bodies[V_Y, a] = record[at + np.uint64(F_VAY * LANES)]
-            bodies[V_W, a] = record[at + np.uint64(F_WA * LANES)]
+            bodies[a, V_X] = record[at + R_VAX]
+            bodies[a, V_Y] = record[at + R_VAY]
+            bodies[a, V_W] = record[at + R_WA]
 
 
 @inlined
@@ -249,37 +252,37 @@ def normal_visits(record: np.ndarray, begin: np.uint64, end: np.uint64, q: int, 
         o = blk * np.uint64(BLOCK)
         for lane in range(np.uint64(LANES)):
             at = o + lane
-            p = at + np.uint64(q * POINT_FIELDS * LANES)
-            vax, vay, wa = record[at + np.uint64(F_VAX * LANES)], record[at + np.uint64(F_VAY * LANES)], record[at + np.uint64(F_WA * LANES)]
-            vbx, vby, wb = record[at + np.uint64(F_VBX * LANES)], record[at + np.uint64(F_VBY * LANES)], record[at + np.uint64(F_WB * LANES)]
-            nx, ny = record[p + np.uint64(F_NX * LANES)], record[p + np.uint64(F_NY * LANES)]
-            rax, ray = record[p + np.uint64(F_RAX * LANES)], record[p + np.uint64(F_RAY * LANES)]
-            rbx, rby = record[p + np.uint64(F_RBX * LANES)], record[p + np.uint64(F_RBY * LANES)]
-            ca, sa = record[at + np.uint64(F_CA * LANES)], record[at + np.uint64(F_SA * LANES)]
-            cb, sb = record[at + np.uint64(F_CB * LANES)], record[at + np.uint64(F_SB * LANES)]
-            sx = record[at + np.uint64(F_DXB * LANES)] + (cb * rbx - sb * rby)
-            sy = record[at + np.uint64(F_DYB * LANES)] + (sb * rbx + cb * rby)
-            sx -= record[at + np.uint64(F_DXA * LANES)] + (ca * rax - sa * ray)
-            sy -= record[at + np.uint64(F_DYA * LANES)] + (sa * rax + ca * ray)
-            s = record[p + np.uint64(F_BASE * LANES)] + sx * nx + sy * ny
+            p = at + np.uint64(q) * SECOND
+            vax, vay, wa = record[at + R_VAX], record[at + R_VAY], record[at + R_WA]
+            vbx, vby, wb = record[at + R_VBX], record[at + R_VBY], record[at + R_WB]
+            nx, ny = record[p + R_NX], record[p + R_NY]
+            rax, ray = record[p + R_RAX], record[p + R_RAY]
+            rbx, rby = record[p + R_RBX], record[p + R_RBY]
+            ca, sa = record[at + R_CA], record[at + R_SA]
+            cb, sb = record[at + R_CB], record[at + R_SB]
+            sx = record[at + R_DXB] + (cb * rbx - sb * rby)
+            sy = record[at + R_DYB] + (sb * rbx + cb * rby)
+            sx -= record[at + R_DXA] + (ca * rax - sa * ray)
+            sy -= record[at + R_DYA] + (sa * rax + ca * ray)
+            s = record[p + R_BASE] + sx * nx + sy * ny
             target, mass_scale, impulse_scale = 0.0, 1.0, 0.0
             if s > 0.0:
                 target = -s / h
             elif use_bias:
-                target = min(-record[at + np.uint64(F_BIAS * LANES)] * s, push_out)
-                mass_scale = record[at + np.uint64(F_SCALE * LANES)]
-                impulse_scale = record[at + np.uint64(F_LET_GO * LANES)]
+                target = min(-record[at + R_BIAS] * s, push_out)
+                mass_scale = record[at + R_SCALE]
+                impulse_scale = record[at + R_LET_GO]
             ux = vbx - wb * rby
             uy = vby + wb * rbx
             ux -= vax - wa * ray
             uy -= vay + wa * rax
             un = ux * nx + uy * ny
-            old = record[p + np.uint64(F_PN * LANES)]
-            total = max(old + record[p + np.uint64(F_KN * LANES)] * mass_scale * (target - un) - impulse_scale * old,
+            old = record[p + R_PN]
+            total = max(old + record[p + R_KN] * mass_scale * (target - un) - impulse_scale * old,
                         0.0)
-            keep = q == 0 or record[at + np.uint64(F_TWO * LANES)] != 0.0
+            keep = q == 0 or record[at + R_TWO] != 0.0
             apply(record, at, p, (total - old) * nx, (total - old) * ny, keep)
-            record[p + np.uint64(F_PN * LANES)] = total if keep else old
+            record[p + R_PN] = total if keep else old
 
 
 @inlined
@@ -290,24 +293,24 @@ def friction_visits(record: np.ndarray, begin: np.uint64, end: np.uint64, q: int
         o = blk * np.uint64(BLOCK)
         for lane in range(np.uint64(LANES)):
             at = o + lane
-            p = at + np.uint64(q * POINT_FIELDS * LANES)
-            vax, vay, wa = record[at + np.uint64(F_VAX * LANES)], record[at + np.uint64(F_VAY * LANES)], record[at + np.uint64(F_WA * LANES)]
-            vbx, vby, wb = record[at + np.uint64(F_VBX * LANES)], record[at + np.uint64(F_VBY * LANES)], record[at + np.uint64(F_WB * LANES)]
-            nx, ny = record[p + np.uint64(F_NX * LANES)], record[p + np.uint64(F_NY * LANES)]
-            rax, ray = record[p + np.uint64(F_RAX * LANES)], record[p + np.uint64(F_RAY * LANES)]
-            rbx, rby = record[p + np.uint64(F_RBX * LANES)], record[p + np.uint64(F_RBY * LANES)]
-            limit = record[at + np.uint64(F_MU * LANES)] * record[p + np.uint64(F_PN * LANES)]
-            old = record[p + np.uint64(F_PT * LANES)]
+            p = at + np.uint64(q) * SECOND
+            vax, vay, wa = record[at + R_VAX], record[at + R_VAY], record[at + R_WA]
+            vbx, vby, wb = record[at + R_VBX], record[at + R_VBY], record[at + R_WB]
+            nx, ny = record[p + R_NX], record[p + R_NY]
+            rax, ray = record[p + R_RAX], record[p + R_RAY]
+            rbx, rby = record[p + R_RBX], record[p + R_RBY]
+            limit = record[at + R_MU] * record[p + R_PN]
+            old = record[p + R_PT]
             dx, dy = -ny, nx
             ux = vbx - wb * rby
             uy = vby + wb * rbx
             ux -= vax - wa * ray
             uy -= vay + wa * rax
-            total = old - record[p + np.uint64(F_KT * LANES)] * (ux * dx + uy * dy)
+            total = old - record[p + R_KT] * (ux * dx + uy * dy)
             total = min(max(total, -limit), limit)
-            keep = q == 0 or record[at + np.uint64(F_TWO * LANES)] != 0.0
+            keep = q == 0 or record[at + R_TWO] != 0.0
             apply(record, at, p, -(total - old) * ny, (total - old) * nx, keep)
-            record[p + np.uint64(F_PT * LANES)] = total if keep else old
+            record[p + R_PT] = total if keep else old
 
 
 @inlined
@@ -315,23 +318,23 @@ def apply(record: np.ndarray, at: np.uint64, p: np.uint64, px: float, py: float,
     """``soft_step.impulse_at`` on a lane: the impulse ``(px, py)`` at the point whose fields start at ``p`` on
     side ``B`` and its opposite on side ``A``, where the lane has the point (``keep``) and, for ``A``, where
     ``A`` is a body."""
-    vbx, vby, wb = record[at + np.uint64(F_VBX * LANES)], record[at + np.uint64(F_VBY * LANES)], record[at + np.uint64(F_WB * LANES)]
-    nvbx = vbx + record[at + np.uint64(F_IMB * LANES)] * px
-    nvby = vby + record[at + np.uint64(F_IMB * LANES)] * py
-    nwb = wb + record[at + np.uint64(F_IIB * LANES)] * (record[p + np.uint64(F_RBX * LANES)] * py
-                                                       - record[p + np.uint64(F_RBY * LANES)] * px)
-    record[at + np.uint64(F_VBX * LANES)] = nvbx if keep else vbx
-    record[at + np.uint64(F_VBY * LANES)] = nvby if keep else vby
-    record[at + np.uint64(F_WB * LANES)] = nwb if keep else wb
-    vax, vay, wa = record[at + np.uint64(F_VAX * LANES)], record[at + np.uint64(F_VAY * LANES)], record[at + np.uint64(F_WA * LANES)]
-    nvax = vax - record[at + np.uint64(F_IMA * LANES)] * px
-    nvay = vay - record[at + np.uint64(F_IMA * LANES)] * py
-    nwa = wa - record[at + np.uint64(F_IIA * LANES)] * (record[p + np.uint64(F_RAX * LANES)] * py
-                                                       - record[p + np.uint64(F_RAY * LANES)] * px)
-    moves = keep and record[at + np.uint64(F_MOVES_A * LANES)] != 0.0
-    record[at + np.uint64(F_VAX * LANES)] = nvax if moves else vax
-    record[at + np.uint64(F_VAY * LANES)] = nvay if moves else vay
-    record[at + np.uint64(F_WA * LANES)] = nwa if moves else wa
+    vbx, vby, wb = record[at + R_VBX], record[at + R_VBY], record[at + R_WB]
+    nvbx = vbx + record[at + R_IMB] * px
+    nvby = vby + record[at + R_IMB] * py
+    nwb = wb + record[at + R_IIB] * (record[p + R_RBX] * py
+                                                       - record[p + R_RBY] * px)
+    record[at + R_VBX] = nvbx if keep else vbx
+    record[at + R_VBY] = nvby if keep else vby
+    record[at + R_WB] = nwb if keep else wb
+    vax, vay, wa = record[at + R_VAX], record[at + R_VAY], record[at + R_WA]
+    nvax = vax - record[at + R_IMA] * px
+    nvay = vay - record[at + R_IMA] * py
+    nwa = wa - record[at + R_IIA] * (record[p + R_RAX] * py
+                                                       - record[p + R_RAY] * px)
+    moves = keep and record[at + R_MOVES_A] != 0.0
+    record[at + R_VAX] = nvax if moves else vax
+    record[at + R_VAY] = nvay if moves else vay
+    record[at + R_WA] = nwa if moves else wa
 
 
 @leaf
