@@ -54,7 +54,8 @@ from stackx.models.planar.state import PlanarState
 from stackx.registry import solvers
 from stackx.solvers.planar.applied import clear_applied
 from stackx.solvers.planar.base import PlanarMemorySolver, StepImpulses
-from stackx.solvers.planar.contacts import PN, PT, contact_workspace, find_contacts, observed_contacts, recall, remember
+from stackx.solvers.planar.contacts import (PN, PT, contact_workspace, find_contacts_near, near_workspace,
+                                            observe_contacts, recall, remember)
 from stackx.solvers.planar.wavefront import manifold_starts, wavefronts
 from stackx.solvers.planar.wide import (BODY_COLUMNS, COS, D_X, D_Y, LANES, SIN, V_W, V_X, V_Y,
                                         add_applied, block_workspace, blocks_needed, give_back, lay_out, soft_pass,
@@ -158,7 +159,9 @@ def soft_step_advance(x: np.ndarray, y: np.ndarray, angle: np.ndarray, vx: np.nd
         record, sides, rows = block_workspace(ids.shape[0] // 2 + 1)
         start = np.empty((n, 3))
         bodies = np.empty((n + 1, BODY_COLUMNS))
-        ids, table, count = find_contacts(xb, yb, ab, hxb, hyb, im, speculative[b], ids, table)
+        near, fat = near_workspace(n)  # the broad phase's candidates, kept while the boxes stay near
+        ids, table, count, near = find_contacts_near(xb, yb, ab, hxb, hyb, im, speculative[b], near, fat, ids,
+                                                     table)
         watched = applied.shape[1] > 0  # the step's impulses are summed only for a caller that reads them
         for _ in range(steps):
             if order.shape[0] < ids.shape[0]:
@@ -190,8 +193,11 @@ def soft_step_advance(x: np.ndarray, y: np.ndarray, angle: np.ndarray, vx: np.nd
             store_velocities(bodies, vxb, vyb, wb)
             give_back(table, rows, record, blocks)
             held[b] = remember(ids, table, count, keys[b], carried[b])
-            ids, table, count = observed_contacts(xb, yb, ab, hxb, hyb, im, speculative[b], ids, table, dt[b],
-                                                  last, peak, reach, touched, launch, b)
+            # where the step ended: the contacts of its monitors and of the next step (``observed_contacts``)
+            ids, table, count, near = find_contacts_near(xb, yb, ab, hxb, hyb, im, speculative[b], near, fat, ids,
+                                                         table)
+            observe_contacts(xb, yb, ab, hxb, hyb, im, speculative[b], ids, table, count, dt[b], last, peak, reach,
+                             touched, launch, b)
 
 
 @solvers.register("planar-soft-step")

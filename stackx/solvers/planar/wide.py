@@ -93,14 +93,14 @@ def lay_out(x: np.ndarray, y: np.ndarray, inv_mass: np.ndarray, inv_inertia: np.
     for v in range(waves):
         for j0 in range(begin, tally[v], LANES):
             o = blk * np.uint64(BLOCK)
-            for f in range(BLOCK):
-                record[o + np.uint64(f)] = 0.0
             for lane in range(LANES):
                 slot = blk * np.uint64(LANES) + np.uint64(lane)
                 sides[slot, 0], sides[slot, 1] = ground, ground
                 rows[np.uint64(2) * slot], rows[np.uint64(2) * slot + np.uint64(1)] = NONE, NONE
                 jj = j0 + lane
                 if jj >= tally[v]:
+                    for f in range(np.uint64(0), R_VAX, np.uint64(LANES)):
+                        record[o + f + np.uint64(lane)] = 0.0
                     continue
                 k0, k1 = first[order[jj]], first[order[jj] + 1]
                 a, b = ids[k0, A], ids[k0, B]
@@ -117,6 +117,9 @@ def lay_out(x: np.ndarray, y: np.ndarray, inv_mass: np.ndarray, inv_inertia: np.
                 record[at + R_LET_GO] = softness[soft, 2]
                 record[at + R_MOVES_A] = 1.0 if a >= 0 else 0.0
                 record[at + R_TWO] = 1.0 if k1 - k0 > 1 else 0.0
+                if k1 - k0 == 1:  # no second point: zeros, which the passes compute with and then drop
+                    for f in range(R_NX, R_NX + SECOND, np.uint64(LANES)):
+                        record[at + SECOND + f] = 0.0
                 for q in range(k1 - k0):
                     k = k0 + q
                     rows[np.uint64(2) * slot + np.uint64(q)] = np.uint64(k)
