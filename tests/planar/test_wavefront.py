@@ -18,6 +18,7 @@ from stackx.solvers.planar.contacts import (A, B, KN, KT, MU, NX, NY, PN, PT, co
 from stackx.solvers.planar.soft_step import SUBSTEP_HERTZ, PlanarSoftStep, PlanarSoftStepParams
 from stackx.solvers.planar.substep import base_separations, moved, separation, step_start
 from stackx.solvers.planar.wavefront import manifold_end, manifold_starts, wavefronts
+from stackx.solvers.planar.wide import LANES
 from stackx.models.planar.state import PlanarState
 from tests.planar.hand_states import boxes, pyramid
 
@@ -174,3 +175,55 @@ def test_the_soft_step_gives_the_numbers_of_visiting_manifolds_in_table_order(pa
     for name in ("x", "y", "angle", "vx", "vy", "w"):
         assert np.array_equal(getattr(state, name), getattr(expected, name)), name
     assert np.abs(expected.vx).max() > 0.1  # the pile is moving: the test compares something that happens
+
+
+def _wide_pile() -> PlanarState:
+    """Waves wider than a block: a static slab (body 0, so side ``A`` of the box on it is a static box), a
+    jittered pyramid of 5 rows and ten boxes landing apart on the ground, every other one turned so it
+    lands on a corner (one-point manifolds), all moving."""
+    slab = boxes([-6.0], [0.25], [0.0], [(1.5, 0.25)], [0.0], [0.5])
+    on_slab = boxes([-6.1], [1.0], [0.0], [(0.5, 0.5)], [1.0], [0.5])
+    pile = pyramid(5, mu=0.6, jitter=0.15, seed=2)
+    xs = [4.0 + 1.4 * i for i in range(10)]
+    apart = boxes(xs, [0.52 + 0.03 * (i % 3) for i in range(10)], [0.35 if i % 2 else 0.0 for i in range(10)],
+                  [(0.5, 0.4)] * 10, [1.0] * 10, [0.4 + 0.05 * i for i in range(10)])
+    state = PlanarState(*(np.concatenate([getattr(s, f) for s in (slab, on_slab, pile, apart)], axis=1)
+                          for f in PlanarState.BODY))
+    rng = np.random.default_rng(7)
+    moving = state.inv_mass[0] > 0
+    state.vx[0, moving] = rng.uniform(-0.6, 0.6, moving.sum())
+    state.w[0, moving] = rng.uniform(-1.0, 1.0, moving.sum())
+    return state
+
+
+@pytest.mark.parametrize("params", [{"substeps": 4}, {"substeps": 3, "relax": False, "warm_start": False}])
+def test_the_pass_in_blocks_of_lanes_gives_the_table_order_numbers_to_the_bit(params: dict[str, object]) -> None:
+    """The soft step solves a wave's manifolds ``wide.LANES`` at a time; on waves that fill several blocks
+    and leave lanes empty, with one- and two-point manifolds and the ground and a static box as side ``A``,
+    every number after 15 steps is the plain table-order transcription's, byte for byte (signs of zeros
+    too)."""
+    state = _wide_pile()
+    ids, table = contact_workspace(8 * state.bodies + 8)
+    with compiled(False):
+        ids, table, count = find_contacts(state.x[0], state.y[0], state.angle[0], state.hx[0], state.hy[0],
+                                          state.inv_mass[0], 0.02, ids, table)
+        first, order = np.empty(count + 1, np.int64), np.empty(count, np.int64)
+        m = manifold_starts(ids, count, first)
+        tally = np.empty(count + 1, np.int64)
+        waves = wavefronts(ids, first, m, np.empty(state.bodies, np.int64), np.empty(count, np.int64), tally, order)
+    sizes = np.diff(np.concatenate([[0], tally[:waves]]))
+    assert sizes.max() > 2 * LANES and any(s % LANES for s in sizes)  # full blocks, and lanes left empty
+    points = np.diff(first[:m + 1])
+    assert set(points) == {1, 2}
+    sides = ids[first[:m], A]
+    assert (sides < 0).any() and any(a >= 0 and state.inv_mass[0, a] == 0.0 for a in sides)
+    p = PlanarSoftStepParams(**params)
+    expected = _wide_pile()
+    with compiled(False):
+        _table_order_steps(expected, p, 15)
+    solver = PlanarSoftStep([p], np.array([G]), np.array([DT]))
+    with compiled(True):
+        solver.advance(state, 15)
+    for name in ("x", "y", "angle", "vx", "vy", "w"):
+        assert getattr(state, name).tobytes() == getattr(expected, name).tobytes(), name
+    assert np.abs(expected.w).max() > 0.1  # the boxes still turn and slide: the comparison has something to see
