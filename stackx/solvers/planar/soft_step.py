@@ -181,13 +181,14 @@ def soft_step_advance(x: np.ndarray, y: np.ndarray, angle: np.ndarray, vx: np.nd
             load_bodies(vxb, vyb, wb, bodies)
             if watched:
                 clear_applied(applied[b], count)
-            for _ in range(substeps[b]):
+            for i in range(substeps[b]):
                 body_gravity(bodies, im, g[b], h)
                 warm_start(bodies, sides, record, blocks)
-                soft_pass(bodies, sides, record, waves, ends, h, True, push_out[b])
+                # the relax pass measured the separations where the boxes still are
+                soft_pass(bodies, sides, record, waves, ends, h, True, push_out[b], i == 0 or not relax[b])
                 integrate_moved(xb, yb, ab, bodies, start, h)
                 if relax[b]:
-                    soft_pass(bodies, sides, record, waves, ends, h, False, push_out[b])
+                    soft_pass(bodies, sides, record, waves, ends, h, False, push_out[b], True)
                 if watched:
                     add_applied(rows, record, blocks, applied[b])
             store_velocities(bodies, vxb, vyb, wb)

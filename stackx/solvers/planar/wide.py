@@ -43,15 +43,15 @@ LANES = 4  # manifolds a block solves side by side
 # friction, softness (bias rate, mass scale, impulse scale), whether side ``A`` is a body the impulses move
 # (not the ground) and whether it has a second point; then per point (the second point's fields ``SECOND``
 # after the first's) its normal, anchors, normal and tangent effective masses, separation when found less
-# what the anchors give along the normal, and impulses; then, gathered from the bodies for each pass, the
-# velocities of both sides and their motion since the step began
-FIELDS = 46
+# what the anchors give along the normal, impulses, and its separation as last measured; then, gathered
+# from the bodies for a pass, the velocities of both sides and their motion since the step began
+FIELDS = 48
 BLOCK = FIELDS * LANES
 (R_IMA, R_IIA, R_IMB, R_IIB, R_MU, R_BIAS, R_SCALE, R_LET_GO, R_MOVES_A, R_TWO,
- R_NX, R_NY, R_RAX, R_RAY, R_RBX, R_RBY, R_KN, R_KT, R_BASE, R_PN, R_PT) = (np.uint64(f * LANES) for f in range(21))
-SECOND = np.uint64(11 * LANES)
+ R_NX, R_NY, R_RAX, R_RAY, R_RBX, R_RBY, R_KN, R_KT, R_BASE, R_PN, R_PT, R_S) = (np.uint64(f * LANES) for f in range(22))
+SECOND = np.uint64(12 * LANES)
 (R_VAX, R_VAY, R_WA, R_VBX, R_VBY, R_WB, R_DXA, R_DYA, R_CA, R_SA, R_DXB, R_DYB, R_CB, R_SB) = (
-    np.uint64(f * LANES) for f in range(32, FIELDS))
+    np.uint64(f * LANES) for f in range(34, FIELDS))
 NONE = np.uint64(2 ** 62)  # the table row of a point slot that holds no point
 
 # the bodies as the passes read them, one row each and the ground's last: velocities and the motion since the
@@ -202,26 +202,20 @@ def warm_start(bodies: np.ndarray, sides: np.ndarray, record: np.ndarray, blocks
 
 
 @inlined
-def gather(bodies: np.ndarray, sides: np.ndarray, record: np.ndarray, blk: np.uint64) -> None:
-    """The block's lanes' bodies' velocities and motion since the step began, into its record."""
+def gather(bodies: np.ndarray, sides: np.ndarray, record: np.ndarray, blk: np.uint64, moved: bool) -> None:
+    """The block's lanes' bodies' velocities into its record, and their motion since the step began when they
+    ``moved`` since the last pass."""
     o = blk * np.uint64(BLOCK)
     for lane in range(np.uint64(LANES)):
         a, b = sides[blk * np.uint64(LANES) + lane, 0], sides[blk * np.uint64(LANES) + lane, 1]
         at = o + lane
-        record[at + R_VAX] = bodies[a, V_X]
-        record[at + R_VAY] = bodies[a, V_Y]
-        record[at + R_WA] = bodies[a, V_W]
-        record[at + R_VBX] = bodies[b, V_X]
-        record[at + R_VBY] = bodies[b, V_Y]
-        record[at + R_WB] = bodies[b, V_W]
-        record[at + R_DXA] = bodies[a, D_X]
-        record[at + R_DYA] = bodies[a, D_Y]
-        record[at + R_CA] = bodies[a, COS]
-        record[at + R_SA] = bodies[a, SIN]
-        record[at + R_DXB] = bodies[b, D_X]
-        record[at + R_DYB] = bodies[b, D_Y]
-        record[at + R_CB] = bodies[b, COS]
-        record[at + R_SB] = bodies[b, SIN]
+        record[at + R_VAX], record[at + R_VAY], record[at + R_WA] = bodies[a, V_X], bodies[a, V_Y], bodies[a, V_W]
+        record[at + R_VBX], record[at + R_VBY], record[at + R_WB] = bodies[b, V_X], bodies[b, V_Y], bodies[b, V_W]
+        if moved:
+            record[at + R_DXA], record[at + R_DYA] = bodies[a, D_X], bodies[a, D_Y]
+            record[at + R_CA], record[at + R_SA] = bodies[a, COS], bodies[a, SIN]
+            record[at + R_DXB], record[at + R_DYB] = bodies[b, D_X], bodies[b, D_Y]
+            record[at + R_CB], record[at + R_SB] = bodies[b, COS], bodies[b, SIN]
 
 
 @inlined
@@ -244,7 +238,7 @@ def scatter(bodies: np.ndarray, sides: np.ndarray, record: np.ndarray, blk: np.u
 
 @inlined
 def normal_visits(record: np.ndarray, begin: np.uint64, end: np.uint64, q: int, h: float, use_bias: bool,
-                  push_out: float) -> None:
+                  push_out: float, moved: bool) -> None:
     """Point ``q``'s normal visit in every lane of blocks ``begin`` to ``end`` (``soft_step``'s visit, the same
     arithmetic in the same order): the separation measured again from the bodies' motion since the step
     began, the soft or speculative target, the accumulated normal impulse clamped at 0 and applied. A lane
@@ -261,13 +255,15 @@ def normal_visits(record: np.ndarray, begin: np.uint64, end: np.uint64, q: int, 
             nx, ny = record[p + R_NX], record[p + R_NY]
             rax, ray = record[p + R_RAX], record[p + R_RAY]
             rbx, rby = record[p + R_RBX], record[p + R_RBY]
-            ca, sa = record[at + R_CA], record[at + R_SA]
-            cb, sb = record[at + R_CB], record[at + R_SB]
-            sx = record[at + R_DXB] + (cb * rbx - sb * rby)
-            sy = record[at + R_DYB] + (sb * rbx + cb * rby)
-            sx -= record[at + R_DXA] + (ca * rax - sa * ray)
-            sy -= record[at + R_DYA] + (sa * rax + ca * ray)
-            s = record[p + R_BASE] + sx * nx + sy * ny
+            if moved:
+                ca, sa = record[at + R_CA], record[at + R_SA]
+                cb, sb = record[at + R_CB], record[at + R_SB]
+                sx = record[at + R_DXB] + (cb * rbx - sb * rby)
+                sy = record[at + R_DYB] + (sb * rbx + cb * rby)
+                sx -= record[at + R_DXA] + (ca * rax - sa * ray)
+                sy -= record[at + R_DYA] + (sa * rax + ca * ray)
+                record[p + R_S] = record[p + R_BASE] + sx * nx + sy * ny
+            s = record[p + R_S]
             target, mass_scale, impulse_scale = 0.0, 1.0, 0.0
             if s > 0.0:
                 target = -s / h
@@ -342,19 +338,21 @@ def apply(record: np.ndarray, at: np.uint64, p: np.uint64, px: float, py: float,
 
 @leaf
 def soft_pass(bodies: np.ndarray, sides: np.ndarray, record: np.ndarray, waves: int, ends: np.ndarray, h: float,
-              use_bias: bool, push_out: float) -> None:
+              use_bias: bool, push_out: float, moved: bool) -> None:
     """One pass over the blocks wave by wave: the wave's bodies gathered into its blocks, every lane's first
     normal, then every second normal, then the frictions the same way (each a loop over the wave's blocks
     and their lanes whose visits are independent of each other, so the processor overlaps them), and the
     velocities scattered back. A manifold's visits keep their order and the blocks of a wave share no body,
-    so this is the scalar pass to the bit."""
+    so this is the scalar pass to the bit. The separations are measured again where the bodies ``moved``
+    since the last pass (the first pass of a step, and every pass after positions were integrated), else
+    the last pass's are used: the same numbers, found once."""
     begin = np.uint64(0)
     for v in range(waves):
         end = ends[v]
         for blk in range(begin, end):
-            gather(bodies, sides, record, blk)
-        normal_visits(record, begin, end, 0, h, use_bias, push_out)
-        normal_visits(record, begin, end, 1, h, use_bias, push_out)
+            gather(bodies, sides, record, blk, moved)
+        normal_visits(record, begin, end, 0, h, use_bias, push_out, moved)
+        normal_visits(record, begin, end, 1, h, use_bias, push_out, moved)
         friction_visits(record, begin, end, 0)
         friction_visits(record, begin, end, 1)
         for blk in range(begin, end):
