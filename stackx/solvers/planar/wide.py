@@ -131,14 +131,29 @@ def lay_out(x: np.ndarray, y: np.ndarray, inv_mass: np.ndarray, inv_inertia: np.
                     record[p + R_NX], record[p + R_NY] = nx, ny
                     record[p + R_RAX], record[p + R_RAY] = rax, ray
                     record[p + R_RBX], record[p + R_RBY] = rbx, rby
-                    record[p + R_KN] = effective_mass(ima, iia, rax, ray, imb, iib, rbx, rby, nx, ny)
-                    record[p + R_KT] = effective_mass(ima, iia, rax, ray, imb, iib, rbx, rby, -ny,
-                                                                         nx)
                     record[p + R_BASE] = -table[k, DEPTH] - ((rbx - rax) * nx + (rby - ray) * ny)
                     record[p + R_PN], record[p + R_PT] = table[k, PN], table[k, PT]
             blk += np.uint64(1)
         ends[v] = blk
         begin = tally[v]
+    effective_masses(record, blk)
+
+
+@leaf
+def effective_masses(record: np.ndarray, blocks: np.uint64) -> None:
+    """Every point's normal and tangent effective masses (``contacts.effective_mass``) from the masses,
+    anchors and normal ``lay_out`` wrote: one loop over the lanes, whose divisions LLVM does four at a time.
+    A lane or point without a contact has zeros, and an effective mass of 0."""
+    for blk in range(blocks):
+        for lane in range(np.uint64(LANES)):
+            at = blk * np.uint64(BLOCK) + lane
+            ima, iia, imb, iib = record[at + R_IMA], record[at + R_IIA], record[at + R_IMB], record[at + R_IIB]
+            for q in range(2):
+                p = at + np.uint64(q) * SECOND
+                nx, ny = record[p + R_NX], record[p + R_NY]
+                rax, ray, rbx, rby = record[p + R_RAX], record[p + R_RAY], record[p + R_RBX], record[p + R_RBY]
+                record[p + R_KN] = effective_mass(ima, iia, rax, ray, imb, iib, rbx, rby, nx, ny)
+                record[p + R_KT] = effective_mass(ima, iia, rax, ray, imb, iib, rbx, rby, -ny, nx)
 
 
 @leaf
