@@ -54,7 +54,8 @@ from stackx.models.planar.state import PlanarState
 from stackx.registry import solvers
 from stackx.solvers.planar.applied import clear_applied
 from stackx.solvers.planar.base import PlanarMemorySolver, StepImpulses
-from stackx.solvers.planar.contacts import (PN, PT, contact_workspace, find_contacts_near, near_workspace,
+from stackx.solvers.planar.kept import Kept, keep, take_back
+from stackx.solvers.planar.contacts import (COLUMNS, PN, PT, find_contacts_near, near_workspace,
                                             observe_contacts, recall, remember)
 from stackx.solvers.planar.wavefront import manifold_starts, wavefronts
 from stackx.solvers.planar.wide import (BODY_COLUMNS, COS, D_X, D_Y, LANES, SIN, V_W, V_X, V_Y,
@@ -140,11 +141,14 @@ def soft_step_advance(x: np.ndarray, y: np.ndarray, angle: np.ndarray, vx: np.nd
                       friction: np.ndarray, g: np.ndarray, dt: np.ndarray, substeps: np.ndarray,
                       hertz: np.ndarray, damping_ratio: np.ndarray, push_out: np.ndarray, relax: np.ndarray,
                       warm: np.ndarray, speculative: np.ndarray, keys: np.ndarray, carried: np.ndarray,
-                      held: np.ndarray, applied: np.ndarray, last: np.ndarray, peak: np.ndarray, reach: np.ndarray,
-                      touched: np.ndarray, launch: np.ndarray, steps: int) -> None:
+                      held: np.ndarray, applied: np.ndarray, kept_ids: np.ndarray, kept_points: np.ndarray,
+                      kept_count: np.ndarray, kept_at: np.ndarray, kept_near: np.ndarray, kept_fat: np.ndarray,
+                      last: np.ndarray, peak: np.ndarray, reach: np.ndarray, touched: np.ndarray,
+                      launch: np.ndarray, steps: int) -> None:
     """``steps`` steps of every batch row, in place; ``keys``, ``carried`` and ``held`` carry each row's
     points and impulses from one step (and one call) to the next; ``applied`` gets what each step applied
-    (``stackx.solvers.planar.applied``) when it has room for them (``watch_impulses``), else nothing."""
+    (``stackx.solvers.planar.applied``) when it has room for them (``watch_impulses``), else nothing; the
+    ``kept_`` arrays (``kept.Kept``) carry the contacts found where a call ends to the next call."""
     for b in prange(x.shape[0]):
         xb, yb, ab, vxb, vyb, wb = x[b], y[b], angle[b], vx[b], vy[b], w[b]  # the row's views, made once
         im, ii, hxb, hyb, mub = inv_mass[b], inv_inertia[b], hx[b], hy[b], friction[b]
@@ -154,14 +158,19 @@ def soft_step_advance(x: np.ndarray, y: np.ndarray, angle: np.ndarray, vx: np.nd
         softness = np.empty((2, 3))
         softness[0, 0], softness[0, 1], softness[0, 2] = soft(contact_hertz, damping_ratio[b], h)
         softness[1, 0], softness[1, 1], softness[1, 2] = soft(STATIC_HERTZ * contact_hertz, damping_ratio[b], h)
-        ids, table = contact_workspace(keys.shape[1])
+        # the contact table unfilled (``contact_workspace`` zeroes it): a step reads only what ``collide`` and
+        # the step itself write, and zeroing a pile's room costs a call more than its bookkeeping
+        ids, table = np.empty((keys.shape[1], 3), np.int64), np.empty((keys.shape[1], COLUMNS))
         first, order, wave, tally, ends, latest = pass_workspace(ids.shape[0], n)
-        record, sides, rows = block_workspace(ids.shape[0] // 2 + 1)
+        record, sides, rows = block_workspace(1)  # grown to the step's blocks at its first lay-out
         start = np.empty((n, 3))
         bodies = np.empty((n + 1, BODY_COLUMNS))
         near, fat = near_workspace(n)  # the broad phase's candidates, kept while the boxes stay near
-        ids, table, count, near = find_contacts_near(xb, yb, ab, hxb, hyb, im, speculative[b], near, fat, ids,
-                                                     table)
+        count = take_back(xb, yb, ab, hxb, hyb, im, ids, table, near, fat, kept_ids[b], kept_points[b],
+                          kept_count[b], kept_at[b], kept_near[b], kept_fat[b])
+        if count < 0:
+            ids, table, count, near = find_contacts_near(xb, yb, ab, hxb, hyb, im, speculative[b], near, fat, ids,
+                                                         table)
         watched = applied.shape[1] > 0  # the step's impulses are summed only for a caller that reads them
         for _ in range(steps):
             if order.shape[0] < ids.shape[0]:
@@ -199,6 +208,8 @@ def soft_step_advance(x: np.ndarray, y: np.ndarray, angle: np.ndarray, vx: np.nd
                                                          table)
             observe_contacts(xb, yb, ab, hxb, hyb, im, speculative[b], ids, table, count, dt[b], last, peak, reach,
                              touched, launch, b)
+        kept_count[b] = keep(xb, yb, ab, hxb, hyb, im, ids, table, count, near, fat, kept_ids[b], kept_points[b],
+                             kept_at[b], kept_near[b], kept_fat[b])
 
 
 @solvers.register("planar-soft-step")
@@ -217,6 +228,7 @@ class PlanarSoftStep(PlanarMemorySolver):
         self.warm = self.flags("warm_start")
         self.speculative = self.column("speculative")
         self.applied: np.ndarray | None = None  # per row and point, what the last step applied (applied.py)
+        self.kept: Kept | None = None  # per row, the contacts found where the last call ended (kept.py)
 
     @classmethod
     def passes(cls, params: PlanarSoftStepParams) -> int:
@@ -231,13 +243,20 @@ class PlanarSoftStep(PlanarMemorySolver):
         n = held.pn.shape[0]
         return StepImpulses(held.keys, self.applied[b, :n, 0].copy(), self.applied[b, :n, 1].copy())
 
+    def remove_box(self, state: PlanarState, box: int) -> None:
+        """``PlanarMemorySolver``'s, and the kept contacts forgotten: the boxes after ``box`` are renumbered."""
+        super().remove_box(state, box)
+        self.kept = None
+
     def advance(self, state: PlanarState, steps: int) -> None:
         s = state
         keys, carried, held = self.memory(state)
         room = keys.shape[1] if self.watched else 0
         if self.applied is None or self.applied.shape[:2] != (keys.shape[0], room):
             self.applied = np.zeros((keys.shape[0], room, 2))
+        if self.kept is None or not self.kept.fits(s.batch, s.bodies, keys.shape[1]):
+            self.kept = Kept(s.batch, s.bodies, keys.shape[1])
         soft_step_advance(s.x, s.y, s.angle, s.vx, s.vy, s.w, s.inv_mass, s.inv_inertia, s.hx, s.hy, s.friction,
                           self.gravity, self.dt, self.substeps, self.hertz, self.damping_ratio, self.push_out,
-                          self.relax, self.warm, self.speculative, keys, carried, held, self.applied, *s.monitors(),
-                          steps)
+                          self.relax, self.warm, self.speculative, keys, carried, held, self.applied,
+                          *self.kept.arrays(), *s.monitors(), steps)

@@ -1,0 +1,83 @@
+"""The contacts the soft step keeps from one call to the next (``stackx.solvers.planar.kept``): taken back only
+where they are what a fresh collision test would find, so stepping in calls of any length, and changing the
+state between calls, gives the numbers of finding them afresh, byte for byte."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+import pytest
+
+from stackx.kernel import compiled
+from stackx.models.planar.state import PlanarState
+from stackx.solvers.planar.soft_step import PlanarSoftStep, PlanarSoftStepParams
+from tests.planar.hand_states import pyramid
+
+DT = 1 / 60
+G = -9.8
+FIELDS = ("x", "y", "angle", "vx", "vy", "w")
+
+
+def _pile() -> PlanarState:
+    state = pyramid(4, mu=0.5, jitter=0.1, seed=4)
+    state.vx[0] = np.linspace(-0.3, 0.3, state.bodies)
+    return state
+
+
+def _solver() -> PlanarSoftStep:
+    return PlanarSoftStep([PlanarSoftStepParams()], np.array([G]), np.array([DT]))
+
+
+def _lift(state: PlanarState) -> None:
+    state.y[0, -1] += 0.3  # the top box off its neighbours: its contacts are gone
+
+
+def _pin(state: PlanarState) -> None:
+    for i in (0, 4):  # a bottom box and one resting on it made static: static boxes do not touch each other
+        state.inv_mass[0, i], state.inv_inertia[0, i] = 0.0, 0.0
+        state.vx[0, i], state.vy[0, i], state.w[0, i] = 0.0, 0.0, 0.0
+
+
+def _shrink(state: PlanarState) -> None:
+    state.hx[0, 3] *= 0.8  # a box narrower: its bounds change, not its centre
+
+
+def _nothing(state: PlanarState) -> None:
+    pass
+
+
+def test_calls_of_one_step_give_the_numbers_of_one_call() -> None:
+    one, many = _pile(), _pile()
+    with compiled(True):
+        _solver().advance(one, 12)
+        solver = _solver()
+        for _ in range(12):
+            solver.advance(many, 1)
+    assert solver.kept is not None and solver.kept.count[0] > 0  # the calls did hand their contacts on
+    for name in FIELDS:
+        assert getattr(one, name).tobytes() == getattr(many, name).tobytes(), name
+
+
+@pytest.mark.parametrize("change", [_lift, _pin, _shrink, _nothing])
+def test_a_state_changed_between_calls_steps_as_if_its_contacts_were_found_afresh(
+        change: Callable[[PlanarState], None]) -> None:
+    """The same two calls with a change of the state between them, once with the kept contacts and
+    candidates forgotten before the second call: the same bytes."""
+    out = []
+    for forget in (False, True):
+        state, solver = _pile(), _solver()
+        with compiled(True):
+            solver.advance(state, 6)
+            change(state)
+            if forget:
+                assert solver.kept is not None
+                solver.kept.forget()
+            solver.advance(state, 6)
+        out.append((state, solver.memory(state)))
+    (kept, kept_memory), (fresh, fresh_memory) = out
+    for name in FIELDS:
+        assert getattr(kept, name).tobytes() == getattr(fresh, name).tobytes(), name
+    for a, b in zip(kept_memory, fresh_memory):  # the same points found, with the same impulses
+        assert a.tobytes() == b.tobytes()
+    assert not np.array_equal(kept.x, _pile().x)  # the pile moved: the steps did something
