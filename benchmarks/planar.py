@@ -10,8 +10,9 @@ pyramids of 10, 20, 30, 40 and 60 rows (5 cm apart in a row, the ``pyramid`` sce
   (``solver.advance(state, steps)``): ``planar-pgs`` and ``planar-warm-start`` at 10 and 30 iterations,
   ``planar-soft-step``, ``planar-ngs`` and ``planar-xpbd`` at their defaults, ``planar-exact`` on piles up to
   ``--exact-boxes`` boxes (its cost is a sparse factorisation, the reference, not a speed subject);
-- Box2D 3.1 (pyb2d3) at its defaults with 4 substeps, one ``world.step`` call per step. Sleeping is off, so it
-  steps every box every step as stackx does (asleep, a resting pile costs Box2D almost nothing);
+- Box2D 3.1 (pyb2d3) at its defaults with 4 substeps, one ``world.step`` call per step, on one thread (no
+  thread pool given). Sleeping is off, so it steps every box every step as stackx does (asleep, a resting
+  pile costs Box2D almost nothing);
 - pymunk at 10 and 30 iterations (collision slop 0.01 m), one ``Space.step`` per step.
 
 The engines get the same boxes (mass and moment of inertia from the state), and the ground is a static box
@@ -362,7 +363,7 @@ def run(json_path: Path, steps: int, repeats: int, batch: int, exact_boxes: int,
     box2d = batched.get(BOX2D, math.nan)
     if batched:
         console.print(f"pyramid-20 x {batch} worlds, µs per world-step (stackx: one call per step for the batch, "
-                      f"{numba.config.NUMBA_NUM_THREADS} threads; Box2D: one call per world and step): "
+                      f"{numba.config.NUMBA_NUM_THREADS} threads; Box2D: one call per world and step, one thread): "
                       + ", ".join(f"{n} {us:.1f} ({box2d / us:.1f}x fewer than Box2D)" for n, us in batched.items()
                                   if n != BOX2D) + f", {BOX2D} {box2d:.1f}")
     doc = {"steps": steps, "repeats": repeats, "boxes": {p: s.bodies for p, s in piles.items()},
