@@ -252,79 +252,91 @@ def scatter(bodies: np.ndarray, sides: np.ndarray, record: np.ndarray, blk: np.u
 
 
 @inlined
-def normal_visits(record: np.ndarray, begin: np.uint64, end: np.uint64, q: int, h: float, use_bias: bool,
-                  push_out: float, moved: bool) -> None:
-    """Point ``q``'s normal visit in every lane of blocks ``begin`` to ``end`` (``soft_step``'s visit, the same
-    arithmetic in the same order): the separation measured again from the bodies' motion since the step
-    began, the soft or speculative target, the accumulated normal impulse clamped at 0 and applied. A lane
-    reads and writes its own numbers at fixed offsets from its block's start, and what a lane without the
-    point or without a movable side ``A`` would change is kept by a select: LLVM does the lanes at once in
-    vector registers."""
+def normals(record: np.ndarray, begin: np.uint64, end: np.uint64, h: float, use_bias: bool, push_out: float,
+            moved: bool) -> None:
+    """Both points' normal visits in every lane of blocks ``begin`` to ``end``, the first point's then the
+    second's. A lane reads and writes its own numbers at fixed offsets from its block's start, so LLVM does
+    the lanes at once in vector registers, and the blocks' visits, independent of each other, overlap."""
     for blk in range(begin, end):
-        o = blk * np.uint64(BLOCK)
         for lane in range(np.uint64(LANES)):
-            at = o + lane
-            p = at + np.uint64(q) * SECOND
-            vax, vay, wa = record[at + R_VAX], record[at + R_VAY], record[at + R_WA]
-            vbx, vby, wb = record[at + R_VBX], record[at + R_VBY], record[at + R_WB]
-            nx, ny = record[p + R_NX], record[p + R_NY]
-            rax, ray = record[p + R_RAX], record[p + R_RAY]
-            rbx, rby = record[p + R_RBX], record[p + R_RBY]
-            if moved:
-                ca, sa = record[at + R_CA], record[at + R_SA]
-                cb, sb = record[at + R_CB], record[at + R_SB]
-                sx = record[at + R_DXB] + (cb * rbx - sb * rby)
-                sy = record[at + R_DYB] + (sb * rbx + cb * rby)
-                sx -= record[at + R_DXA] + (ca * rax - sa * ray)
-                sy -= record[at + R_DYA] + (sa * rax + ca * ray)
-                record[p + R_S] = record[p + R_BASE] + sx * nx + sy * ny
-            s = record[p + R_S]
-            target, mass_scale, impulse_scale = 0.0, 1.0, 0.0
-            if s > 0.0:
-                target = -s / h
-            elif use_bias:
-                target = min(-record[at + R_BIAS] * s, push_out)
-                mass_scale = record[at + R_SCALE]
-                impulse_scale = record[at + R_LET_GO]
-            ux = vbx - wb * rby
-            uy = vby + wb * rbx
-            ux -= vax - wa * ray
-            uy -= vay + wa * rax
-            un = ux * nx + uy * ny
-            old = record[p + R_PN]
-            total = max(old + record[p + R_KN] * mass_scale * (target - un) - impulse_scale * old,
-                        0.0)
-            keep = q == 0 or record[at + R_TWO] != 0.0
-            apply(record, at, p, (total - old) * nx, (total - old) * ny, keep)
-            record[p + R_PN] = total if keep else old
+            at = blk * np.uint64(BLOCK) + lane
+            for q in range(2):
+                normal_visit(record, at, q, h, use_bias, push_out, moved)
 
 
 @inlined
-def friction_visits(record: np.ndarray, begin: np.uint64, end: np.uint64, q: int) -> None:
-    """Point ``q``'s friction visit in every lane of blocks ``begin`` to ``end``, as ``normal_visits`` does its
-    normal: the accumulated friction impulse within ``mu`` times the point's normal impulse, applied."""
+def frictions(record: np.ndarray, begin: np.uint64, end: np.uint64) -> None:
+    """Both points' friction visits in every lane of blocks ``begin`` to ``end``, as ``normals``."""
     for blk in range(begin, end):
-        o = blk * np.uint64(BLOCK)
         for lane in range(np.uint64(LANES)):
-            at = o + lane
-            p = at + np.uint64(q) * SECOND
-            vax, vay, wa = record[at + R_VAX], record[at + R_VAY], record[at + R_WA]
-            vbx, vby, wb = record[at + R_VBX], record[at + R_VBY], record[at + R_WB]
-            nx, ny = record[p + R_NX], record[p + R_NY]
-            rax, ray = record[p + R_RAX], record[p + R_RAY]
-            rbx, rby = record[p + R_RBX], record[p + R_RBY]
-            limit = record[at + R_MU] * record[p + R_PN]
-            old = record[p + R_PT]
-            dx, dy = -ny, nx
-            ux = vbx - wb * rby
-            uy = vby + wb * rbx
-            ux -= vax - wa * ray
-            uy -= vay + wa * rax
-            total = old - record[p + R_KT] * (ux * dx + uy * dy)
-            total = min(max(total, -limit), limit)
-            keep = q == 0 or record[at + R_TWO] != 0.0
-            apply(record, at, p, -(total - old) * ny, (total - old) * nx, keep)
-            record[p + R_PT] = total if keep else old
+            at = blk * np.uint64(BLOCK) + lane
+            for q in range(2):
+                friction_visit(record, at, q)
+
+
+@inlined
+def normal_visit(record: np.ndarray, at: np.uint64, q: int, h: float, use_bias: bool, push_out: float,
+                 moved: bool) -> None:
+    """Point ``q``'s normal visit in the lane whose fields start at ``at`` (the soft step's visit, the same
+    arithmetic in the same order): the separation measured again from the bodies' motion since the step
+    began (when they ``moved`` since it was last measured), the soft or speculative target, the accumulated
+    normal impulse clamped at 0 and applied. What a lane without the point would change is kept by a
+    select."""
+    p = at + np.uint64(q) * SECOND
+    nx, ny = record[p + R_NX], record[p + R_NY]
+    rax, ray = record[p + R_RAX], record[p + R_RAY]
+    rbx, rby = record[p + R_RBX], record[p + R_RBY]
+    if moved:
+        ca, sa = record[at + R_CA], record[at + R_SA]
+        cb, sb = record[at + R_CB], record[at + R_SB]
+        sx = record[at + R_DXB] + (cb * rbx - sb * rby)
+        sy = record[at + R_DYB] + (sb * rbx + cb * rby)
+        sx -= record[at + R_DXA] + (ca * rax - sa * ray)
+        sy -= record[at + R_DYA] + (sa * rax + ca * ray)
+        record[p + R_S] = record[p + R_BASE] + sx * nx + sy * ny
+    s = record[p + R_S]
+    target, mass_scale, impulse_scale = 0.0, 1.0, 0.0
+    if s > 0.0:
+        target = -s / h
+    elif use_bias:
+        target = min(-record[at + R_BIAS] * s, push_out)
+        mass_scale = record[at + R_SCALE]
+        impulse_scale = record[at + R_LET_GO]
+    un = speed_along(record, at, nx, ny, rax, ray, rbx, rby)
+    old = record[p + R_PN]
+    total = max(old + record[p + R_KN] * mass_scale * (target - un) - impulse_scale * old, 0.0)
+    keep = q == 0 or record[at + R_TWO] != 0.0
+    apply(record, at, p, (total - old) * nx, (total - old) * ny, keep)
+    record[p + R_PN] = total if keep else old
+
+
+@inlined
+def friction_visit(record: np.ndarray, at: np.uint64, q: int) -> None:
+    """Point ``q``'s friction visit in the lane whose fields start at ``at``: the accumulated friction impulse
+    within ``mu`` times the point's normal impulse, applied."""
+    p = at + np.uint64(q) * SECOND
+    nx, ny = record[p + R_NX], record[p + R_NY]
+    limit = record[at + R_MU] * record[p + R_PN]
+    old = record[p + R_PT]
+    ut = speed_along(record, at, -ny, nx, record[p + R_RAX], record[p + R_RAY], record[p + R_RBX],
+                      record[p + R_RBY])
+    total = old - record[p + R_KT] * ut
+    total = min(max(total, -limit), limit)
+    keep = q == 0 or record[at + R_TWO] != 0.0
+    apply(record, at, p, -(total - old) * ny, (total - old) * nx, keep)
+    record[p + R_PT] = total if keep else old
+
+
+@inlined
+def speed_along(record: np.ndarray, at: np.uint64, dx: float, dy: float, rax: float, ray: float, rbx: float,
+                 rby: float) -> float:
+    """``contacts.relative_velocity`` in a lane: ``((v_B + w_B x r_B) - (v_A + w_A x r_A)) . d``, the same
+    arithmetic in the same order."""
+    ux = record[at + R_VBX] - record[at + R_WB] * rby
+    uy = record[at + R_VBY] + record[at + R_WB] * rbx
+    ux -= record[at + R_VAX] - record[at + R_WA] * ray
+    uy -= record[at + R_VAY] + record[at + R_WA] * rax
+    return ux * dx + uy * dy
 
 
 @inlined
@@ -366,10 +378,8 @@ def soft_pass(bodies: np.ndarray, sides: np.ndarray, record: np.ndarray, waves: 
         end = ends[v]
         for blk in range(begin, end):
             gather(bodies, sides, record, blk, moved)
-        normal_visits(record, begin, end, 0, h, use_bias, push_out, moved)
-        normal_visits(record, begin, end, 1, h, use_bias, push_out, moved)
-        friction_visits(record, begin, end, 0)
-        friction_visits(record, begin, end, 1)
+        normals(record, begin, end, h, use_bias, push_out, moved)
+        frictions(record, begin, end)
         for blk in range(begin, end):
             scatter(bodies, sides, record, blk)
         begin = end
