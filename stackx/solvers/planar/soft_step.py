@@ -19,11 +19,12 @@ How a step is laid out (Box2D v3.1's ``contact_solver.c`` and ``solver.c`` do th
 anchors relative to the centres, normal and tangent masses, the separation when found, the softness, in
 arrays the substeps walk in order, bodies' velocities in one compact array): once a step, ``wide.lay_out``
 writes all a visit reads that does not change within the step, manifold by manifold in the order the
-passes visit them, and the bodies' velocities, masses and motion since the step began sit in one row each,
-the ground as a last row of zeros. The order is ``wavefront``'s: manifolds in waves that share no body,
-which gives the numbers of visiting them in table order to the bit (see that module), and the manifolds of
-a wave are solved several at a time in the lanes of vector registers, as Box2D v3 solves a graph colour
-(``wide``).
+passes visit them, and each body's velocities and motion since the step began sit in one row, the ground
+as a last row of zeros. The order is ``wavefront``'s: manifolds in waves that share no body, which gives
+the numbers of visiting them in table order to the bit (see that module), and the manifolds of a wave are
+solved four at a time in the lanes of vector registers, as Box2D v3 solves a graph colour (``wide``). A
+point's separation is measured once per position of the boxes: the relax pass's serves the next substep's
+solve. The contacts found where a call's last step ends start the next call (``kept``).
 
 Restitution is 0. With ``w = 2 pi hertz``, ``z`` the damping ratio and ``h`` the substep the soft
 coefficients are Box2D v3's (``stackx.solvers.column.soft_step.soft``, shared with the column): the separating
