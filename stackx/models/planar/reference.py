@@ -30,9 +30,12 @@ sliding tangent gives ``pt = +-mu pn``, a separating point gives ``pn = pt = 0``
    exact one by full Newton rounds. On small problems (up to ``LEMKE_EARLY`` points) it comes right after the
    cheap tries (before the proximal point method), where it costs tens of milliseconds; on larger ones it is
    the last try. On a problem over ``pivoting.EXACT_POINTS`` points it walks a regularized problem (seconds on
-   a 20-row pyramid), whose answer lies within about 1e-6 m/s of the step's, and the proximal point method
-   (from weight ``PIVOT_SETTLE``) lands from there: of nine recorded steps of a 20-row pyramid under
-   ``planar-xpbd`` at 16 substeps that every other try missed, it lands six, in 5 to 30 s.
+   a 20-row pyramid), whose answer lies within about 1e-6 m/s of the step's, and full Newton rounds, then the
+   proximal point method (from weight ``PIVOT_SETTLE``), land from there. On recorded steps of a 20-row
+   pyramid that every other try missed it lands 28 of 29 under ``planar-soft-step`` at 64 substeps (1.3 to 59
+   s a step, most under 3 s) and 5 of 8 under ``planar-xpbd`` at 16; a run of the latter's first 40 steps
+   leaves 9 unsolved where 21 were without it (``python3 -m benchmarks.planar_reference --steps 40 --run
+   configs/planar/pyramid-20.yaml planar-xpbd 16``).
 
 **Faces that cannot stick at both points.** The two points of a face whose targets differ (one touching,
 one closing a speculative gap) close at different normal speeds, so the face turns; as the points sit at
