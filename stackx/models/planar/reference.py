@@ -33,7 +33,7 @@ sliding tangent gives ``pt = +-mu pn``, a separating point gives ``pn = pt = 0``
    a 20-row pyramid), whose answer lies within about 1e-6 m/s of the step's, and full Newton rounds, then the
    proximal point method (from weight ``PIVOT_SETTLE``), land from there. On recorded steps of a 20-row
    pyramid that every other try missed it lands 28 of 29 under ``planar-soft-step`` at 64 substeps (1.3 to 59
-   s a step, most under 3 s) and 5 of 8 under ``planar-xpbd`` at 16; a run of the latter's first 40 steps
+   s a step, most under 3 s) and 8 of 14 under ``planar-xpbd`` at 16; a run of the latter's first 40 steps
    leaves 9 unsolved where 21 were without it (``python3 -m benchmarks.planar_reference --steps 40 --run
    configs/planar/pyramid-20.yaml planar-xpbd 16``).
 
