@@ -170,11 +170,13 @@ def test_a_tall_stack_is_held_still_by_the_first_try(monkeypatch: pytest.MonkeyP
 
 
 def test_a_solve_that_does_not_get_there_says_so(monkeypatch: pytest.MonkeyPatch) -> None:
+    from stackx.models.planar import pivoting
+
     p = step_problem(pyramid(6, jitter=0.05, seed=1), 0, -9.8, 1 / 60, 0.02)
-    monkeypatch.setattr(reference, "LEMKE_POINTS", 0)  # pivoting would solve it
+    monkeypatch.setattr(pivoting, "starts", lambda problem: iter(()))  # pivoting would solve it
     monkeypatch.setattr(reference, "SETTLE_ROUNDS", 0)  # and so would the proximal point method
-    with pytest.raises(ReferenceFailure, match=r"not solved to 1e-10 m/s in 10 tries \(1 damped or 2 full Newton "
-                                               r"rounds each\) and \d+ sweeps: best residual"):
+    with pytest.raises(ReferenceFailure, match=r"not solved to 1e-10 m/s in 11 tries \(1 damped or 2 full Newton "
+                                               r"rounds each, Lemke pivoting\) and \d+ sweeps: best residual"):
         solve(p, sweeps=0, rounds=1)
     stuck = ContactProblem(np.zeros(1), np.zeros(1), np.zeros((1, 3)), np.array([-1]), np.array([0]),
                            np.array([[0.0, 1.0]]), np.zeros((1, 2)), np.zeros((1, 2)), np.ones(1), np.ones(1))
@@ -238,7 +240,9 @@ def test_which_point_of_a_face_slides_is_tried_not_guessed(monkeypatch: pytest.M
     # nearly the same 1e-8 m/s; making the one that slips a hair more slide sent Newton off, and only Lemke's
     # pivoting solved the step. Trying both and keeping the one whose round lands lower solves it by Newton.
     (p, pn, pt), = _recorded("trembling_stack_step")
-    monkeypatch.setattr(reference, "LEMKE_POINTS", 0)
+    from stackx.models.planar import pivoting
+
+    monkeypatch.setattr(pivoting, "starts", lambda problem: iter(()))
     sol = solve(p, pn, pt)
     assert residual(p, sol.pn, sol.pt) < 1e-10
     slides = np.isclose(np.abs(sol.pt), p.friction * sol.pn, rtol=0, atol=1e-12) & (sol.pn > 1e-9)
@@ -326,10 +330,14 @@ def test_a_loop_of_held_faces_whose_targets_disagree_by_a_hair_is_solved_by_a_fo
     # whose targets disagree by a few 1e-10 m/s, so every try stalls just above the tolerance, the error shared
     # out around the loop. The exact answer has a point of the loop sliding; probing the stall with one forced
     # slide per point, those slipping most first, finds it (the hair point of 40 on 45, the second probed).
-    from stackx.models.planar import reference
+    # Without probes, Lemke's walk (the last try) lands it.
+    from stackx.models.planar import pivoting, reference
 
     (p, pn, pt), = _recorded("xpbd_pyramid_loop_step")
     monkeypatch.setattr(reference, "PROBES", 0)
+    pivoted = solve(p, pn, pt, begin=4)
+    assert residual(p, pivoted.pn, pivoted.pt) < 1e-10 and pivoted.attempt == 13
+    monkeypatch.setattr(pivoting, "starts", lambda problem: iter(()))
     with pytest.raises(ReferenceFailure) as stalled:
         solve(p, pn, pt, begin=4)
     assert 1e-10 < stalled.value.best < 3e-10

@@ -25,11 +25,17 @@ sliding tangent gives ``pt = +-mu pn``, a separating point gives ``pn = pt = 0``
    answer, which keeps a round from leaping far when the modes read are wrong (which weight lands a step is
    hard to foretell: a step of ``stack-40`` that every try at 1e-5 missed lands at 1e-3, 1e-4 and 1e-6
    alike, so the heavier tries start at 1e-3);
-4. Lemke's pivoting (``stackx.models.planar.lemke``) on problems up to ``LEMKE_POINTS`` points: on a box
-   landing on a pile, where many points change mode at once and the Newton rounds cycle between two mode
-   combinations; its answer is taken to the exact one by full Newton rounds. On small problems (up to
-   ``LEMKE_EARLY`` points) it comes right after the cheap tries (before the proximal point method), where it
-   costs tens of milliseconds.
+4. Lemke's pivoting (``stackx.models.planar.pivoting``, sparse): on a box landing on a pile, where many points
+   change mode at once and the Newton rounds cycle between two mode combinations; its answer is taken to the
+   exact one by full Newton rounds. On small problems (up to ``LEMKE_EARLY`` points) it comes right after the
+   cheap tries (before the proximal point method), where it costs tens of milliseconds; on larger ones it is
+   the last try. On a problem over ``pivoting.EXACT_POINTS`` points it walks a regularized problem (seconds on
+   a 20-row pyramid), whose answer lies within about 1e-6 m/s of the step's, and full Newton rounds, then the
+   proximal point method (from weight ``PIVOT_SETTLE``), land from there. On recorded steps of a 20-row
+   pyramid that every other try missed it lands 28 of 29 under ``planar-soft-step`` at 64 substeps (1.3 to 59
+   s a step, most under 3 s) and 8 of 14 under ``planar-xpbd`` at 16; a run of the latter's first 40 steps
+   leaves 9 unsolved where 21 were without it (``python3 -m benchmarks.planar_reference --steps 40 --run
+   configs/planar/pyramid-20.yaml planar-xpbd 16``).
 
 **Faces that cannot stick at both points.** The two points of a face whose targets differ (one touching,
 one closing a speculative gap) close at different normal speeds, so the face turns; as the points sit at
@@ -74,8 +80,9 @@ first that does is the answer, checked by the residual like any other. A pile ma
 20-row pyramid does): a forced slide whose rounds leave fewer points off the contract is kept, and the probing
 goes on from there, within ``PROBES`` forced slides in all.
 
-**Where it may still fail.** A problem over ``LEMKE_POINTS`` points (a 20-row pyramid has 800) on which
-every Newton try cycles, the proximal point method wanders, and the forced slides probed do not land; the solve
+**Where it may still fail.** A large problem (a 20-row pyramid has 800 points) on which every Newton try
+cycles, the proximal point method wanders, the forced slides probed do not land, and the proximal point method
+from the regularized problem's answer does not either; the solve
 then raises (``ReferenceFailure`` with the best residual reached) and the bench counts the step as
 ``unsolved``, shown beside the error, never silently skipped. The known cases are on a 20-row pyramid: under
 ``planar-xpbd``, stalls that need several slides at once and walks that crawl; under ``planar-soft-step`` at 64
@@ -123,7 +130,6 @@ from stackx.models.planar.problem import (GROUND, ContactProblem, effective_mass
 TOLERANCE = 1e-10  # m/s: the contract's residual the reference reaches
 PROXIMAL = 1e-5  # the proximal weight d (dimensionless: a share of each point's own effective mass)
 DAMPED = (1e-3, 1e-1, 1e-2)  # heavier proximal weights of the last Newton tries: each round goes part of the way
-LEMKE_POINTS = 120  # largest problem (points) Lemke's pivoting is tried on when Newton fails (dense: O(m^3))
 LEMKE_EARLY = 64  # up to this many points, Lemke comes right after the cheap tries (it then takes < 0.1 s)
 SWEEPS = 200  # most projected Gauss-Seidel sweeps before the first Newton round, and after a lost one
 CHUNK = 10  # sweeps between looks at the residual
@@ -134,6 +140,7 @@ QUICK = 2  # tries of a quick solve: the first two of its order (from the warm s
 WANDER = 3  # full Newton steps in a row that may leave the residual above the best (last try)
 MIN_STEP = 1.0 / 64  # the shortest Newton step tried before going back to sweeps
 SETTLE_START = 1e-2  # the proximal point method's first weight d
+PIVOT_SETTLE = 1e-5  # its first weight from the answer of Lemke's walk on a large problem (already near)
 SETTLE_SHRINK = 0.3  # d shrinks by this after a round whose regularized problem took at most SETTLE_EASY rounds
 SETTLE_EASY = 4
 SETTLE_FLOOR = 1e-9  # the smallest d
@@ -363,7 +370,7 @@ def solve(problem: ContactProblem, pn: np.ndarray | None = None, pt: np.ndarray 
                 last = now
         return None, best
 
-    def settle(q: np.ndarray, rounds: int) -> tuple[Solution | None, float]:
+    def settle(q: np.ndarray, rounds: int, start: float = SETTLE_START) -> tuple[Solution | None, float]:
         """The proximal point method from ``q``: each outer round solves the regularized problem whose
         velocities carry ``d (q - center)`` (the center: the last round's answer) by Newton rounds with a line
         search on its residual, and the answers walk to an exact solution. The weight ``d`` adapts: it
@@ -371,7 +378,7 @@ def solve(problem: ContactProblem, pn: np.ndarray | None = None, pt: np.ndarray 
         up, and grows tenfold after one whose problem was not solved, which is then left. Once the
         contract's residual is below ``POLISH``, ``rounds`` full Newton rounds try to land on the answer of
         the modes read there, again each time the residual has fallen tenfold or the modes changed since."""
-        system = ModeSystem(problem, kn, kt, SETTLE_START)
+        system = ModeSystem(problem, kn, kt, start)
         best = polished = reached = system.merit(q)  # reached: the contract's residual at q
         tried = None  # the modes the last full rounds started from
         spent = 0  # Newton rounds of the regularized problems
@@ -453,14 +460,18 @@ def solve(problem: ContactProblem, pn: np.ndarray | None = None, pt: np.ndarray 
         return None
 
     def pivot() -> tuple[Solution | None, float]:
-        """Lemke's pivoting (``stackx.models.planar.lemke``), each answer it ends on taken to the exact one by
-        full Newton rounds."""
-        from stackx.models.planar.lemke import solve_lcp
+        """Lemke's pivoting (``stackx.models.planar.pivoting``), each answer it ends on taken to the exact one by
+        full Newton rounds; on a large problem, whose walk is on a regularized problem, then by the proximal
+        point method from there."""
+        from stackx.models.planar import pivoting
 
         best = np.inf
-        for pn_start, pt_start in solve_lcp(problem):
+        for pn_start, pt_start in pivoting.starts(problem):
+            q = np.concatenate([pn_start / kn, pt_start / kt])
             newton.modes = None
-            found, reached = full(np.concatenate([pn_start / kn, pt_start / kt]), rounds)
+            found, reached = full(q, 2 * rounds)
+            if found is None and m > pivoting.EXACT_POINTS:
+                found, reached = settle(q, 2 * rounds, PIVOT_SETTLE)
             if found is not None:
                 return found, reached
             best = min(best, reached)
@@ -470,8 +481,8 @@ def solve(problem: ContactProblem, pn: np.ndarray | None = None, pt: np.ndarray 
     starts = [warm, zero] if pn.any() or pt.any() else [warm]
     # every try is checked by the residual, so the order changes nothing but the cost: the cheap tries first,
     # then (on small problems, where it costs a few tens of ms) Lemke's pivoting, then the proximal point
-    # method (seconds on a 20-row pyramid), then heavier Newton tries, and Lemke last on problems up to
-    # LEMKE_POINTS, where it may take seconds. A try: its proximal weight and what it runs.
+    # method (seconds on a 20-row pyramid), then heavier Newton tries, and Lemke last on larger problems,
+    # where it takes seconds. A try: its proximal weight and what it runs.
     cheap = [(PROXIMAL, partial(attempt, warm, rounds, 0))]
     cheap += [(PROXIMAL, partial(full, start, 2 * rounds)) for start in starts]
     heavy = [(PROXIMAL, partial(attempt, zero, rounds, 0))] * (len(starts) - 1)
@@ -479,7 +490,7 @@ def solve(problem: ContactProblem, pn: np.ndarray | None = None, pt: np.ndarray 
     for d in DAMPED:
         heavy += [(d, partial(full, warm, 2 * rounds)), (d, partial(attempt, warm, rounds, 0))]
     walk = [(PROXIMAL, partial(settle, warm, 2 * rounds))]
-    lemke = [(PROXIMAL, pivot)] if m <= LEMKE_POINTS else []
+    lemke = [(PROXIMAL, pivot)]
     tries = cheap + lemke + walk + heavy if m <= LEMKE_EARLY else cheap + walk + heavy + lemke
     numbered = list(enumerate(tries, 1))
     if 1 < begin <= len(tries):
@@ -508,8 +519,8 @@ def solve(problem: ContactProblem, pn: np.ndarray | None = None, pt: np.ndarray 
     kept_pn, kept_pt = np.maximum(kept[:m], 0.0) * kn, kept[m:] * kt
     kept_pt = np.clip(kept_pt, -problem.friction * kept_pn, problem.friction * kept_pn)
     raise ReferenceFailure(f"the contact problem ({m} points, {n} bodies) was not solved to {tolerance:g} m/s "
-                           f"in {len(numbered)} tries ({rounds} damped or {2 * rounds} full Newton rounds each"
-                           f"{', Lemke pivoting' if lemke else ''}) and {swept} sweeps: best residual {best:.3g} m/s",
+                           f"in {len(numbered)} tries ({rounds} damped or {2 * rounds} full Newton rounds each, "
+                           f"Lemke pivoting) and {swept} sweeps: best residual {best:.3g} m/s",
                            best, kept_pn, kept_pt)
 
 

@@ -23,8 +23,9 @@ missed: the tries leave each other different starts (the stall is probed once), 
 leaning row of dominoes the order begun at the fifth try missed what the default order lands.
 
 **What a hopeless run costs.** A pile the reference cannot follow sets steps that every try fails, each
-costing all the tries (a 20-row pyramid under ``planar-xpbd`` at 16 substeps: 26 of its first 40 steps, up to
-27 s a solve). After ``MISSES`` such steps in a row, a row's solves are quick: the first ``reference.QUICK``
+costing all the tries (a 20-row pyramid under ``planar-xpbd`` at 16 substeps: 9 of its first 40 steps, up to
+81 s a solve, on 2 shared cores: ``python3 -m benchmarks.planar_reference --steps 40 --run
+configs/planar/pyramid-20.yaml planar-xpbd 16``). After ``MISSES`` such steps in a row, a row's solves are quick: the first ``reference.QUICK``
 tries of their order, the walk of the proximal point method cut to ``reference.SETTLE_QUICK`` rounds, until one
 lands again. That may leave more steps unsolved, never a wrong answer: every unsolved step is counted and
 shown beside the error, and a run with any is kept out of speed-against-error plots, fronts and winners. The

@@ -1,0 +1,96 @@
+"""``python -m benchmarks.planar_pivoting``: what Lemke's walk (``stackx.models.planar.pivoting``) costs on
+recorded step problems, and whether the reference solve lands when it begins with that try.
+
+Per problem: its points; the walk (on the problem's own LCP up to ``pivoting.EXACT_POINTS`` points, else on
+the regularized one): pivots, LU factorizations, CPU ms, and the contract's residual of its answer (m/s);
+then ``reference.solve`` from the recorded warm start, in the default order of its tries or begun at try
+``--begin`` (numbered as ``Solution.attempt`` reports them; on a problem over ``reference.LEMKE_EARLY`` points
+with a nonzero warm start Lemke's is the 13th, the last; a miss is then made again in the default order):
+the try that landed, its residual, and wall s. Problems: every step in ``tests/planar/data`` (``*.json``, ``*.npz``), or with
+``--pickle FILE`` (repeatable) the steps of a list of records, each a dict with ``problem`` (the
+``ContactProblem`` fields), ``pn``, ``pt`` and ``step`` (``--steps`` picks some). Measured on 2 shared cores: a
+20-row pyramid's walk (800 to 925 points, 3,200 to 3,700 unknowns) takes 3,300 to 9,500 pivots, about 0.4 ms
+of CPU each, and ends within 1e-6 m/s.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import pickle
+import time
+from pathlib import Path
+
+import numpy as np
+
+from stackx.models.planar import pivoting, reference
+from stackx.models.planar.problem import ContactProblem, residual
+
+DATA = Path(__file__).resolve().parent.parent / "tests" / "planar" / "data"
+FIELDS = ("inv_mass", "inv_inertia", "velocity", "body_a", "body_b", "normal", "ra", "rb", "friction", "target")
+
+
+def recorded() -> list[tuple[str, ContactProblem, np.ndarray, np.ndarray]]:
+    """Every step in ``tests/planar/data``: (name, problem, warm pn, warm pt)."""
+    found = []
+    for path in sorted(DATA.glob("*.json")):
+        steps = json.loads(path.read_text())
+        for k, s in enumerate(steps if isinstance(steps, list) else [steps]):
+            found.append((f"{path.stem}[{k}]", ContactProblem(*(np.array(s[f]) for f in FIELDS)), np.array(s["pn"]),
+                          np.array(s["pt"])))
+    for path in sorted(DATA.glob("*.npz")):
+        data = np.load(path)
+        found.append((path.stem, ContactProblem(*(data[f] for f in FIELDS)), data["pn"], data["pt"]))
+    return found
+
+
+def pickled(path: str, steps: list[int] | None) -> list[tuple[str, ContactProblem, np.ndarray, np.ndarray]]:
+    """The records of a pickle (see the module text), those of ``steps`` only when given."""
+    with open(path, "rb") as handle:
+        records = pickle.load(handle)
+    found = []
+    for r in records:
+        if steps is None or r["step"] in steps:
+            p = ContactProblem(**r["problem"])
+            pn = np.zeros(p.points) if r["pn"] is None else r["pn"]
+            pt = np.zeros(p.points) if r["pt"] is None else r["pt"]
+            found.append((f"{Path(path).stem}[{r['step']}]", p, pn, pt))
+    return found
+
+
+def measure(name: str, problem: ContactProblem, pn: np.ndarray, pt: np.ndarray, begin: int) -> str:
+    """One row of the table (see the module text)."""
+    exact = problem.points <= pivoting.EXACT_POINTS
+    lcp = pivoting.contact_lcp(problem, 0.0 if exact else pivoting.REGULARIZATION)
+    size = pivoting.PERTURBATIONS[0] if exact else pivoting.LARGE_PERTURBATION
+    start = time.process_time()
+    try:
+        walk = pivoting.walk(lcp.matrix, lcp.constant, size)
+        walked = (f"{walk.pivots:6d} {walk.factorizations:5d} {1e3 * (time.process_time() - start):8.0f} "
+                  f"{residual(problem, *lcp.impulses(walk.z)):9.1e}")
+    except pivoting.RayEnd:
+        walked = f"{'ray':>6} {'':5} {1e3 * (time.process_time() - start):8.0f} {'':9}"
+    start = time.perf_counter()
+    try:
+        found = reference.solve(problem, pn, pt, begin=begin)
+        solved = f"{found.attempt:5d} {found.residual:9.1e}"
+    except reference.ReferenceFailure as failure:
+        solved = f"{'miss':>5} {failure.best:9.1e}"
+    return f"{name:32} {problem.points:6d} {walked} {solved} {time.perf_counter() - start:7.1f}"
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--pickle", action="append", default=[], help="a pickle of recorded step problems")
+    parser.add_argument("--steps", type=int, nargs="+", default=None, help="the recorded steps to measure")
+    parser.add_argument("--begin", type=int, default=1, help="the try the reference solve begins with")
+    args = parser.parse_args()
+    problems = [row for path in args.pickle for row in pickled(path, args.steps)] if args.pickle else recorded()
+    print(f"{'problem':32} {'points':>6} {'pivots':>6} {'LUs':>5} {'walk ms':>8} {'walk res':>9} "
+          f"{'try':>5} {'residual':>9} {'solve s':>7}")
+    for name, problem, pn, pt in problems:
+        print(measure(name, problem, pn, pt, args.begin), flush=True)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,146 @@
+"""Lemke's sparse pivoting against brute force, its contact formulation against the contract, and the
+reference's use of it on steps where the Newton rounds cycle."""
+
+from __future__ import annotations
+
+import itertools
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+from scipy import sparse
+
+from stackx.models.planar import pivoting, reference
+from stackx.models.planar.pivoting import RayEnd, contact_lcp, walk
+from stackx.models.planar.problem import (ContactProblem, effective_masses, relative_velocities, residual,
+                                          velocities_after)
+from tests.planar.test_reference import brute_force, random_problem
+
+FIELDS = ("inv_mass", "inv_inertia", "velocity", "body_a", "body_b", "normal", "ra", "rb", "friction", "target")
+
+
+def enumerate_lcp(m: np.ndarray, q: np.ndarray) -> list[np.ndarray]:
+    """Every ``z`` of the LCP ``(m, q)``: for each subset of basic ``z``, solve ``w_S = 0`` and keep it when
+    ``z >= 0`` and ``w >= 0``."""
+    n = q.shape[0]
+    found = []
+    for chosen in itertools.product((False, True), repeat=n):
+        basic = np.flatnonzero(chosen)
+        z = np.zeros(n)
+        if basic.size:
+            z[basic] = np.linalg.solve(m[np.ix_(basic, basic)], -q[basic])
+        w = m @ z + q
+        if (z >= -1e-12).all() and (w >= -1e-12).all():
+            found.append(z)
+    return found
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_the_walk_finds_the_one_answer_of_a_positive_definite_lcp(seed: int) -> None:
+    rng = np.random.default_rng(seed)
+    n = 2 + seed % 5
+    a = rng.normal(size=(n, n))
+    m = a @ a.T + 0.1 * np.eye(n) + 0.5 * (a - a.T)  # positive definite, not symmetric: one answer
+    q = rng.normal(size=n)
+    (expected,) = enumerate_lcp(m, q)
+    z = walk(sparse.csc_matrix(m), q).z
+    assert np.abs(z - expected).max() < 1e-10
+    w = m @ z + q
+    assert w.min() > -1e-10 and abs(z @ w) < 1e-10
+
+
+def test_a_walk_through_many_refactorizations_keeps_its_answer(monkeypatch: pytest.MonkeyPatch) -> None:
+    # the etas and fresh LUs represent the same basis: refactoring after every pivot or never changes the answer
+    rng = np.random.default_rng(9)
+    n = 40
+    a = sparse.random(n, n, density=0.1, random_state=3).toarray()
+    m = a @ a.T + np.eye(n)
+    q = rng.normal(size=n)
+    answers = []
+    for every in (1, 1000):
+        monkeypatch.setattr(pivoting, "REFACTOR", every)
+        found = walk(sparse.csc_matrix(m), q)
+        answers.append(found.z)
+        assert (found.factorizations > found.pivots) == (every == 1)
+    assert np.abs(answers[0] - answers[1]).max() < 1e-12
+    w = m @ answers[0] + q
+    assert w.min() > -1e-12 and answers[0].min() >= 0.0 and abs(answers[0] @ w) < 1e-10
+
+
+def test_an_lcp_without_answer_ends_on_a_ray() -> None:
+    with pytest.raises(RayEnd, match="ray"):
+        walk(sparse.csc_matrix([[-1.0]]), np.array([-1.0]))  # w = -z - 1 >= 0 has no z >= 0
+    nothing = walk(sparse.identity(2, format="csc"), np.array([1.0, 0.0]))  # q >= 0: nothing to push
+    assert nothing.z.tolist() == [0.0, 0.0] and nothing.pivots == 0
+
+
+@pytest.mark.parametrize("points", [1, 2, 3])
+def test_the_contact_lcp_answers_are_the_contract_answers(points: int) -> None:
+    # whatever the walk ends on, read back as impulses, meets the contract's conditions and is one of the
+    # answers brute force finds mode by mode
+    rng = np.random.default_rng(200 + points)
+    for _ in range(8):
+        p = random_problem(rng, points)
+        lcp = contact_lcp(p)
+        assert lcp.matrix.shape == (4 * points, 4 * points) and lcp.constant.shape == (4 * points,)
+        pn, pt = next(pivoting.starts(p))
+        assert residual(p, pn, pt) < 1e-9
+        v = velocities_after(p, pn, pt)
+        assert min(np.abs(v - answer).max() for answer in brute_force(p)) < 1e-8
+
+
+@pytest.mark.parametrize("points", [2, 5])
+def test_a_regularized_lcp_answer_meets_the_contract_of_the_regularized_problem(points: int) -> None:
+    # with weight d, every relative velocity carries d p / k (k: the point's effective mass): written out point
+    # by point here, the normal's complementarity and the friction box hold exactly for those velocities
+    d = 1e-3
+    rng = np.random.default_rng(300 + points)
+    for _ in range(6):
+        p = random_problem(rng, points)
+        lcp = contact_lcp(p, d)
+        pn, pt = lcp.impulses(walk(lcp.matrix, lcp.constant).z)
+        kn, kt = effective_masses(p)
+        un, ut = relative_velocities(p, velocities_after(p, pn, pt))
+        un, ut = un + d * pn / kn, ut + d * pt / kt
+        normal = np.abs(np.minimum(pn / kn, un - p.target))
+        bound = p.friction * pn
+        tangent = np.abs(pt - np.clip(pt - kt * ut, -bound, bound)) / kt
+        assert max(normal.max(), tangent.max()) < 1e-12
+
+
+def _recorded_npz(name: str) -> tuple[ContactProblem, np.ndarray, np.ndarray]:
+    """A step recorded in ``data/NAME.npz`` (the problem's fields, and the impulses the bench started from)."""
+    data = np.load(Path(__file__).parent / "data" / f"{name}.npz")
+    return ContactProblem(*(data[f] for f in FIELDS)), data["pn"], data["pt"]
+
+
+def test_a_landing_step_where_newton_cycles_is_solved_by_pivoting(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A step of ``planar-warm-start`` (32 iterations) as a 2 kg box lands tilted on a 3-row pyramid: the
+    Newton rounds cycle between two mode combinations; Lemke's walk ends on the answer."""
+    (step,) = json.loads((Path(__file__).parent / "data" / "landing_step.json").read_text())
+    p = ContactProblem(*(np.array(step[f]) for f in FIELDS))
+    pn, pt = np.array(step["pn"]), np.array(step["pt"])
+    sol = reference.solve(p, pn, pt)
+    assert residual(p, sol.pn, sol.pt) < 1e-10
+    assert sol.attempt == 4  # Lemke's walk, right after the three cheap Newton tries on a small problem
+    monkeypatch.setattr(pivoting, "starts", lambda problem: iter(()))
+    alone = reference.solve(p, pn, pt)  # without it, the proximal point method gets there too
+    assert residual(p, alone.pn, alone.pt) < 1e-10
+    monkeypatch.setattr(reference, "SETTLE_ROUNDS", 0)  # Newton rounds alone do not
+    with pytest.raises(reference.ReferenceFailure, match="best residual"):
+        reference.solve(p, pn, pt)
+
+
+def test_a_settling_20_row_pyramid_is_solved_by_pivoting_on_its_regularized_problem() -> None:
+    """Step 5 of ``pyramid-20`` under ``planar-soft-step`` at 64 substeps (800 points, 210 boxes): as the pile
+    settles every Newton try and the proximal point method from the warm start stall above the tolerance. The
+    walk on the regularized problem (the pile is too large for its own) ends within 1e-5 m/s, and Newton's
+    rounds land from there. Begun at that try (the last, 13th), as a run does after a step it landed."""
+    p, pn, pt = _recorded_npz("soft_pyramid20_step")
+    assert p.points == 800 > pivoting.EXACT_POINTS
+    near = next(pivoting.starts(p))
+    assert 1e-10 < residual(p, *near) < 1e-5
+    sol = reference.solve(p, pn, pt, begin=13)
+    assert sol.attempt == 13
+    assert residual(p, sol.pn, sol.pt) < 1e-10
