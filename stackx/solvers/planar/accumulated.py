@@ -1,0 +1,289 @@
+"""Accumulated-impulse passes on a step's contacts laid out in the order the passes visit them.
+
+``contacts.accumulated_iteration`` reads each point from the generic contact table: a row of 25 numbers
+(200 bytes) of which a visit needs about half, rows reached in the wave order (``wavefront``) and so not one
+after the other, and the bodies' velocities and masses from five arrays, with a test for the ground at every
+visit. Box2D v3.1 does this work once a step instead (``contact_solver.c``, ``b2PrepareContactsTask``): per
+manifold its normal, friction and per point the anchors relative to the centres, the normal and tangent
+effective masses and the warm-start impulses, copied "to avoid cache misses during sub-stepping", the bodies'
+velocities in one compact array and a static body read as an identity state. ``lay_out`` does the same:
+
+- one row per manifold, in visiting order, with all its visits read and nothing else: the normal and
+  friction, the 2 x 2 normal mass matrix of a two-point manifold and whether it is solved as a block, and
+  per point its anchors, normal and tangent masses, target velocity and accumulated impulses (``ROW_COLUMNS``);
+- the bodies' velocities and inverse masses in one row each (``bodies``), the ground a row of zeros read as
+  a body (its zeros enter the sums as ``u - 0.0``, which is ``u``, the numbers of skipping it) and a last
+  row that a manifold on the ground writes its ground side to and nothing reads, so no visit tests for the
+  ground.
+
+A pass then visits wave by wave (``wavefront``: a wave's manifolds share no body): every manifold's normals
+(both at once for a two-point block), then every manifold's first friction, then every second one. Each
+manifold's visits keep their order and a wave's manifolds commute exactly, so a pass gives the velocities
+and impulses of ``accumulated_iteration`` over the table in table order, to the bit, while the processor
+overlaps a wave's visits, none of which waits for the one before it.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from stackx.kernel import inlined, kernel, leaf
+from stackx.solvers.planar.columns import A, B, DEPTH, FEATURE, NX, NY, PN, PT, PX, PY
+from stackx.solvers.planar.contacts import BLOCK_CONDITION, effective_mass, gravity, recall, two_point_lcp
+from stackx.solvers.planar.wavefront import manifold_starts, wavefronts
+
+# a manifold's row: its normal, friction (one for both points: the same two bodies), normal mass matrix and
+# whether the block is solved (1.0) or its points visited one by one (0.0); then each point's anchors on A
+# and B, normal and tangent effective masses, target normal velocity and accumulated impulses
+M_NX, M_NY, M_MU, M_K11, M_K12, M_K22, M_BLOCK = range(7)
+Q_RAX, Q_RAY, Q_RBX, Q_RBY, Q_KN, Q_KT, Q_TARGET, Q_PN, Q_PT = range(9)
+FIRST, SECOND = 7, 16  # where each point's columns begin
+ROW_COLUMNS = 25
+# a manifold's ints: the body A is read from (the ground's row for the ground) and written to (the sink row
+# for the ground), its body B, its first table row and its number of points
+L_A, L_SINK, L_B, L_ROW, L_POINTS = range(5)
+# a body's row: velocities, inverse mass and inertia
+V_X, V_Y, V_W, INV_M, INV_I = range(5)
+
+
+@kernel
+def laid_workspace(room: int, bodies: int) -> tuple[np.ndarray, ...]:
+    """Room for the layout of ``room`` points of ``bodies`` bodies: ``(first, order, wave, tally, latest,
+    links, rows, velocities)``; the bodies' rows are ``bodies + 2`` (the ground's, the sink)."""
+    return (np.empty(room + 1, np.int64), np.empty(room, np.int64), np.empty(room, np.int64),
+            np.empty(room + 1, np.int64), np.empty(bodies, np.int64), np.empty((room, 5), np.int64),
+            np.empty((room, ROW_COLUMNS)), np.zeros((bodies + 2, 5)))
+
+
+@leaf
+def lay_out(x: np.ndarray, y: np.ndarray, inv_mass: np.ndarray, inv_inertia: np.ndarray, friction: np.ndarray,
+            ids: np.ndarray, table: np.ndarray, first: np.ndarray, order: np.ndarray, m: int, dt: float,
+            block: bool, links: np.ndarray, rows: np.ndarray) -> None:
+    """The rows of the ``m`` manifolds (``first``: where each begins, ``order``: the visiting order from
+    ``wavefronts``), with what ``contacts.prepare``, ``block_matrix`` and ``set_targets`` find (the same
+    arithmetic) and the impulses the table holds (``recall``'s, or zeros). ``block``: whether a two-point
+    manifold's normals may be solved together."""
+    ground = x.shape[0]
+    for j in range(m):
+        k = first[order[j]]
+        points = first[order[j] + 1] - k
+        a, b = ids[k, A], ids[k, B]
+        imb, iib = inv_mass[b], inv_inertia[b]
+        if a >= 0:
+            ima, iia, mu = inv_mass[a], inv_inertia[a], np.sqrt(friction[a] * friction[b])
+        else:
+            ima, iia, mu = 0.0, 0.0, friction[b]
+        links[j, L_A], links[j, L_SINK] = (a, a) if a >= 0 else (ground, ground + 1)
+        links[j, L_B], links[j, L_ROW], links[j, L_POINTS] = b, k, points
+        nx, ny = table[k, NX], table[k, NY]
+        rows[j, M_NX], rows[j, M_NY], rows[j, M_MU] = nx, ny, mu
+        for q in range(points):
+            c = FIRST if q == 0 else SECOND
+            i = k + q
+            px, py = table[i, PX], table[i, PY]
+            rbx, rby = px - x[b], py - y[b]
+            rax, ray = (px - x[a], py - y[a]) if a >= 0 else (0.0, 0.0)
+            rows[j, c + Q_RAX], rows[j, c + Q_RAY], rows[j, c + Q_RBX], rows[j, c + Q_RBY] = rax, ray, rbx, rby
+            rows[j, c + Q_KN] = effective_mass(ima, iia, rax, ray, imb, iib, rbx, rby, nx, ny)
+            rows[j, c + Q_KT] = effective_mass(ima, iia, rax, ray, imb, iib, rbx, rby, -ny, nx)
+            d = table[i, DEPTH]
+            rows[j, c + Q_TARGET] = d / dt if d < 0.0 else 0.0
+            rows[j, c + Q_PN], rows[j, c + Q_PT] = table[i, PN], table[i, PT]
+        rows[j, M_BLOCK] = 0.0
+        if points == 2:
+            k11, k22 = 1.0 / rows[j, FIRST + Q_KN], 1.0 / rows[j, SECOND + Q_KN]
+            ca1 = rows[j, FIRST + Q_RAX] * ny - rows[j, FIRST + Q_RAY] * nx  # r x n
+            ca2 = rows[j, SECOND + Q_RAX] * ny - rows[j, SECOND + Q_RAY] * nx
+            cb1 = rows[j, FIRST + Q_RBX] * ny - rows[j, FIRST + Q_RBY] * nx
+            cb2 = rows[j, SECOND + Q_RBX] * ny - rows[j, SECOND + Q_RBY] * nx
+            k12 = ima + imb + iia * ca1 * ca2 + iib * cb1 * cb2
+            det = k11 * k22 - k12 * k12
+            rows[j, M_K11], rows[j, M_K12], rows[j, M_K22] = k11, k12, k22
+            if block and k11 * k11 < BLOCK_CONDITION * det:
+                rows[j, M_BLOCK] = 1.0
+
+
+@leaf
+def load_velocities(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, inv_mass: np.ndarray,
+                    inv_inertia: np.ndarray, bodies: np.ndarray) -> None:
+    """The bodies' rows from the state; the ground's row (``n``) stays all zeros."""
+    for i in range(vx.shape[0]):
+        bodies[i, V_X], bodies[i, V_Y], bodies[i, V_W] = vx[i], vy[i], w[i]
+        bodies[i, INV_M], bodies[i, INV_I] = inv_mass[i], inv_inertia[i]
+
+
+@leaf
+def give_velocities(bodies: np.ndarray, vx: np.ndarray, vy: np.ndarray, w: np.ndarray) -> None:
+    """The velocities the passes leave, back to the state."""
+    for i in range(vx.shape[0]):
+        vx[i], vy[i], w[i] = bodies[i, V_X], bodies[i, V_Y], bodies[i, V_W]
+
+
+@leaf
+def along(vax: float, vay: float, wa: float, vbx: float, vby: float, wb: float, rows: np.ndarray, j: int,
+          c: int, dx: float, dy: float) -> float:
+    """``contacts.manifold_velocity`` at the point whose columns begin at ``c`` of row ``j``: the same
+    arithmetic in the same order (A's part subtracted even for the ground, whose zeros leave ``u`` as is)."""
+    ux = vbx - wb * rows[j, c + Q_RBY]
+    uy = vby + wb * rows[j, c + Q_RBX]
+    ux -= vax - wa * rows[j, c + Q_RAY]
+    uy -= vay + wa * rows[j, c + Q_RAX]
+    return ux * dx + uy * dy
+
+
+@leaf
+def push(vax: float, vay: float, wa: float, vbx: float, vby: float, wb: float, ima: float, iia: float, imb: float,
+         iib: float, rows: np.ndarray, j: int, c: int, px: float,
+         py: float) -> tuple[float, float, float, float, float, float]:
+    """``contacts.manifold_impulse`` at the point whose columns begin at ``c`` of row ``j``: the impulse
+    ``(px, py)`` on B and its opposite on A (on the ground it lands in the sink)."""
+    vbx += imb * px
+    vby += imb * py
+    wb += iib * (rows[j, c + Q_RBX] * py - rows[j, c + Q_RBY] * px)
+    vax -= ima * px
+    vay -= ima * py
+    wa -= iia * (rows[j, c + Q_RAX] * py - rows[j, c + Q_RAY] * px)
+    return vax, vay, wa, vbx, vby, wb
+
+
+@leaf
+def laid_warm_start(bodies: np.ndarray, links: np.ndarray, rows: np.ndarray, m: int) -> None:
+    """``contacts.warm_start`` on the layout: every point's impulses applied to its bodies, manifold by
+    manifold in visiting order, which keeps each body's order of points and so gives the same sums."""
+    for j in range(m):
+        a, sink, b = links[j, L_A], links[j, L_SINK], links[j, L_B]
+        nx, ny = rows[j, M_NX], rows[j, M_NY]
+        for q in range(links[j, L_POINTS]):
+            c = FIRST if q == 0 else SECOND
+            pn, pt = rows[j, c + Q_PN], rows[j, c + Q_PT]
+            if pn != 0.0 or pt != 0.0:
+                px, py = pn * nx - pt * ny, pn * ny + pt * nx
+                (bodies[sink, V_X], bodies[sink, V_Y], bodies[sink, V_W], bodies[b, V_X], bodies[b, V_Y],
+                 bodies[b, V_W]) = push(bodies[a, V_X], bodies[a, V_Y], bodies[a, V_W], bodies[b, V_X],
+                                        bodies[b, V_Y], bodies[b, V_W], bodies[a, INV_M], bodies[a, INV_I],
+                                        bodies[b, INV_M], bodies[b, INV_I], rows, j, c, px, py)
+
+
+@inlined
+def laid_normals(bodies: np.ndarray, links: np.ndarray, rows: np.ndarray, j: int, relaxation: float) -> None:
+    """Manifold ``j``'s normal totals: both at once where its row says block (``contacts.block_step``), else
+    point by point (``contacts.normal_step``), the same arithmetic; kept >= 0."""
+    a, sink, b = links[j, L_A], links[j, L_SINK], links[j, L_B]
+    vax, vay, wa, ima, iia = bodies[a, V_X], bodies[a, V_Y], bodies[a, V_W], bodies[a, INV_M], bodies[a, INV_I]
+    vbx, vby, wb, imb, iib = bodies[b, V_X], bodies[b, V_Y], bodies[b, V_W], bodies[b, INV_M], bodies[b, INV_I]
+    nx, ny = rows[j, M_NX], rows[j, M_NY]
+    solved = False
+    if rows[j, M_BLOCK] != 0.0:
+        k11, k12, k22 = rows[j, M_K11], rows[j, M_K12], rows[j, M_K22]
+        a1, a2 = rows[j, FIRST + Q_PN], rows[j, SECOND + Q_PN]
+        b1 = along(vax, vay, wa, vbx, vby, wb, rows, j, FIRST, nx, ny) - rows[j, FIRST + Q_TARGET] - (
+            k11 * a1 + k12 * a2)
+        b2 = along(vax, vay, wa, vbx, vby, wb, rows, j, SECOND, nx, ny) - rows[j, SECOND + Q_TARGET] - (
+            k12 * a1 + k22 * a2)
+        x1, x2, solved = two_point_lcp(k11, k12, k22, b1, b2, True)
+        if solved:
+            x1, x2 = max(a1 + relaxation * (x1 - a1), 0.0), max(a2 + relaxation * (x2 - a2), 0.0)
+            d1, d2 = x1 - a1, x2 - a2
+            vax, vay, wa, vbx, vby, wb = push(vax, vay, wa, vbx, vby, wb, ima, iia, imb, iib, rows, j, FIRST,
+                                              d1 * nx, d1 * ny)
+            vax, vay, wa, vbx, vby, wb = push(vax, vay, wa, vbx, vby, wb, ima, iia, imb, iib, rows, j, SECOND,
+                                              d2 * nx, d2 * ny)
+            rows[j, FIRST + Q_PN], rows[j, SECOND + Q_PN] = x1, x2
+    if not solved:
+        for q in range(links[j, L_POINTS]):
+            c = FIRST if q == 0 else SECOND
+            old = rows[j, c + Q_PN]
+            gap = rows[j, c + Q_TARGET] - along(vax, vay, wa, vbx, vby, wb, rows, j, c, nx, ny)
+            total = max(old + relaxation * rows[j, c + Q_KN] * gap, 0.0)
+            if total != old:
+                step = total - old
+                rows[j, c + Q_PN] = total
+                vax, vay, wa, vbx, vby, wb = push(vax, vay, wa, vbx, vby, wb, ima, iia, imb, iib, rows, j, c,
+                                                  step * nx, step * ny)
+    bodies[sink, V_X], bodies[sink, V_Y], bodies[sink, V_W] = vax, vay, wa
+    bodies[b, V_X], bodies[b, V_Y], bodies[b, V_W] = vbx, vby, wb
+
+
+@inlined
+def laid_friction(bodies: np.ndarray, links: np.ndarray, rows: np.ndarray, j: int, c: int) -> None:
+    """``contacts.friction_step`` at the point of row ``j`` whose columns begin at ``c``: its tangent total
+    moved towards stopping its sliding, kept within ``mu`` times its normal total."""
+    nx, ny = rows[j, M_NX], rows[j, M_NY]
+    limit = rows[j, M_MU] * rows[j, c + Q_PN]
+    old = rows[j, c + Q_PT]
+    a, b = links[j, L_A], links[j, L_B]
+    vax, vay, wa, vbx, vby, wb = (bodies[a, V_X], bodies[a, V_Y], bodies[a, V_W], bodies[b, V_X], bodies[b, V_Y],
+                                  bodies[b, V_W])
+    total = old - rows[j, c + Q_KT] * along(vax, vay, wa, vbx, vby, wb, rows, j, c, -ny, nx)
+    total = min(max(total, -limit), limit)
+    if total != old:
+        step = total - old
+        rows[j, c + Q_PT] = total
+        sink = links[j, L_SINK]
+        (bodies[sink, V_X], bodies[sink, V_Y], bodies[sink, V_W], bodies[b, V_X], bodies[b, V_Y],
+         bodies[b, V_W]) = push(vax, vay, wa, vbx, vby, wb, bodies[a, INV_M], bodies[a, INV_I], bodies[b, INV_M],
+                                bodies[b, INV_I], rows, j, c, -step * ny, step * nx)
+
+
+@leaf
+def laid_pass(bodies: np.ndarray, links: np.ndarray, rows: np.ndarray, waves: int, tally: np.ndarray,
+              relaxation: float) -> None:
+    """One Gauss-Seidel pass over the layout, wave by wave (``tally[v]``: where wave ``v`` ends): every
+    manifold's normals, then every first friction, then every second; ``contacts.accumulated_iteration``'s
+    numbers (see the module doc)."""
+    begin = 0
+    for v in range(waves):
+        end = tally[v]
+        for j in range(begin, end):
+            laid_normals(bodies, links, rows, j, relaxation)
+        for j in range(begin, end):
+            laid_friction(bodies, links, rows, j, FIRST)
+        for j in range(begin, end):
+            if links[j, L_POINTS] == 2:
+                laid_friction(bodies, links, rows, j, SECOND)
+        begin = end
+
+
+@leaf
+def laid_remember(ids: np.ndarray, links: np.ndarray, rows: np.ndarray, m: int, count: int, keys: np.ndarray,
+                  carried: np.ndarray) -> int:
+    """``contacts.remember`` from the layout: this step's points (in table order) and impulses kept for the
+    next, as many as the memory holds; returns how many."""
+    held = min(count, keys.shape[0])
+    for k in range(held):
+        keys[k, 0], keys[k, 1], keys[k, 2] = ids[k, A], ids[k, B], ids[k, FEATURE]
+    for j in range(m):
+        for q in range(links[j, L_POINTS]):
+            k = links[j, L_ROW] + q
+            if k < held:
+                c = FIRST if q == 0 else SECOND
+                carried[k, 0], carried[k, 1] = rows[j, c + Q_PN], rows[j, c + Q_PT]
+    return held
+
+
+@kernel
+def solve_laid(x: np.ndarray, y: np.ndarray, vx: np.ndarray, vy: np.ndarray, w: np.ndarray,
+               inv_mass: np.ndarray, inv_inertia: np.ndarray, friction: np.ndarray, g: float, dt: float,
+               carry: bool, iterations: int, block: bool, relaxation: float, ids: np.ndarray, table: np.ndarray,
+               count: int, keys: np.ndarray, carried: np.ndarray, held: int, first: np.ndarray, order: np.ndarray,
+               wave: np.ndarray, tally: np.ndarray, latest: np.ndarray, links: np.ndarray, rows: np.ndarray,
+               bodies: np.ndarray) -> int:
+    """``contacts.solve_velocities`` on the layout (``laid_workspace``'s room, at least ``count`` points), the
+    same numbers: gravity; the last step's impulses found again (``carry``) and the step laid out; warm start;
+    ``iterations`` passes; the velocities back to the state and this step's impulses kept. Returns how many
+    points the memory now holds."""
+    gravity(vy, inv_mass, g, dt)
+    table[:count, PN] = 0.0
+    table[:count, PT] = 0.0
+    if carry:
+        recall(ids, table, count, keys, carried, held)
+    m = manifold_starts(ids, count, first)
+    waves = wavefronts(ids, first, m, latest, wave, tally, order)
+    lay_out(x, y, inv_mass, inv_inertia, friction, ids, table, first, order, m, dt, block, links, rows)
+    load_velocities(vx, vy, w, inv_mass, inv_inertia, bodies)
+    if carry:
+        laid_warm_start(bodies, links, rows, m)
+    for _ in range(iterations):
+        laid_pass(bodies, links, rows, waves, tally, relaxation)
+    give_velocities(bodies, vx, vy, w)
+    return laid_remember(ids, links, rows, m, count, keys, carried)
