@@ -35,10 +35,11 @@ from stackx.solvers.planar.wavefront import manifold_starts, wavefronts
 # a manifold's row: its normal, friction (one for both points: the same two bodies), normal mass matrix and
 # whether the block is solved (1.0) or its points visited one by one (0.0); then each point's anchors on A
 # and B, normal and tangent effective masses, target normal velocity and accumulated impulses
-M_NX, M_NY, M_MU, M_K11, M_K12, M_K22, M_BLOCK = range(7)
+M_NX, M_NY, M_MU, M_K11, M_K12, M_K22, M_BLOCK, M_MODERATE, M_IDLE = range(9)
 Q_RAX, Q_RAY, Q_RBX, Q_RBY, Q_KN, Q_KT, Q_TARGET, Q_PN, Q_PT = range(9)
-FIRST, SECOND = 7, 16  # where each point's columns begin
-ROW_COLUMNS = 25
+FIRST, SECOND = 9, 18  # where each point's columns begin
+ROW_COLUMNS = 27
+MODERATE = 1e100  # velocities, anchors, masses and friction below this cannot overflow a visit's sums
 # a manifold's ints: the body A is read from (the ground's row for the ground) and written to (the sink row
 # for the ground), its body B, its first table row and its number of points
 L_A, L_SINK, L_B, L_ROW, L_POINTS = range(5)
@@ -51,7 +52,7 @@ def laid_workspace(room: int, bodies: int) -> tuple[np.ndarray, ...]:
     """Room for the layout of ``room`` points of ``bodies`` bodies: ``(first, order, wave, tally, latest,
     links, rows, velocities)``; the bodies' rows are ``bodies + 2`` (the ground's, the sink)."""
     return (np.empty(room + 1, np.int64), np.empty(room, np.int64), np.empty(room, np.int64),
-            np.empty(room + 1, np.int64), np.empty(bodies, np.int64), np.empty((room, 5), np.int64),
+            np.empty(room + 1, np.int64), np.empty(bodies, np.int64), np.empty((room, 5), np.uint64),
             np.empty((room, ROW_COLUMNS)), np.zeros((bodies + 2, 5)))
 
 
@@ -77,6 +78,7 @@ def lay_out(x: np.ndarray, y: np.ndarray, inv_mass: np.ndarray, inv_inertia: np.
         links[j, L_B], links[j, L_ROW], links[j, L_POINTS] = b, k, points
         nx, ny = table[k, NX], table[k, NY]
         rows[j, M_NX], rows[j, M_NY], rows[j, M_MU] = nx, ny, mu
+        moderate = mu < MODERATE
         for q in range(points):
             c = FIRST if q == 0 else SECOND
             i = k + q
@@ -89,6 +91,10 @@ def lay_out(x: np.ndarray, y: np.ndarray, inv_mass: np.ndarray, inv_inertia: np.
             d = table[i, DEPTH]
             rows[j, c + Q_TARGET] = d / dt if d < 0.0 else 0.0
             rows[j, c + Q_PN], rows[j, c + Q_PT] = table[i, PN], table[i, PT]
+            moderate = moderate and max(abs(rax), abs(ray), abs(rbx), abs(rby), rows[j, c + Q_KT]) < MODERATE
+        if points == 1:  # no second point: nothing it holds
+            rows[j, SECOND + Q_PN], rows[j, SECOND + Q_PT] = 0.0, 0.0
+        rows[j, M_MODERATE] = 1.0 if moderate else 0.0
         rows[j, M_BLOCK] = 0.0
         if points == 2:
             k11, k22 = 1.0 / rows[j, FIRST + Q_KN], 1.0 / rows[j, SECOND + Q_KN]
@@ -150,10 +156,10 @@ def push(vax: float, vay: float, wa: float, vbx: float, vby: float, wb: float, i
 def laid_warm_start(bodies: np.ndarray, links: np.ndarray, rows: np.ndarray, m: int) -> None:
     """``contacts.warm_start`` on the layout: every point's impulses applied to its bodies, manifold by
     manifold in visiting order, which keeps each body's order of points and so gives the same sums."""
-    for j in range(m):
+    for j in range(np.uint64(m)):
         a, sink, b = links[j, L_A], links[j, L_SINK], links[j, L_B]
         nx, ny = rows[j, M_NX], rows[j, M_NY]
-        for q in range(links[j, L_POINTS]):
+        for q in range(np.int64(links[j, L_POINTS])):
             c = FIRST if q == 0 else SECOND
             pn, pt = rows[j, c + Q_PN], rows[j, c + Q_PT]
             if pn != 0.0 or pt != 0.0:
@@ -184,13 +190,16 @@ def laid_normals(bodies: np.ndarray, links: np.ndarray, rows: np.ndarray, j: int
         if solved:
             x1, x2 = max(a1 + relaxation * (x1 - a1), 0.0), max(a2 + relaxation * (x2 - a2), 0.0)
             d1, d2 = x1 - a1, x2 - a2
-            vax, vay, wa, vbx, vby, wb = push(vax, vay, wa, vbx, vby, wb, ima, iia, imb, iib, rows, j, FIRST,
-                                              d1 * nx, d1 * ny)
-            vax, vay, wa, vbx, vby, wb = push(vax, vay, wa, vbx, vby, wb, ima, iia, imb, iib, rows, j, SECOND,
-                                              d2 * nx, d2 * ny)
+            # pushes of zero add a signed zero to each velocity, which changes none that is not zero itself
+            if d1 != 0.0 or d2 != 0.0 or not (vax != 0.0 and vay != 0.0 and wa != 0.0 and vbx != 0.0
+                                              and vby != 0.0 and wb != 0.0):
+                vax, vay, wa, vbx, vby, wb = push(vax, vay, wa, vbx, vby, wb, ima, iia, imb, iib, rows, j, FIRST,
+                                                  d1 * nx, d1 * ny)
+                vax, vay, wa, vbx, vby, wb = push(vax, vay, wa, vbx, vby, wb, ima, iia, imb, iib, rows, j, SECOND,
+                                                  d2 * nx, d2 * ny)
             rows[j, FIRST + Q_PN], rows[j, SECOND + Q_PN] = x1, x2
     if not solved:
-        for q in range(links[j, L_POINTS]):
+        for q in range(np.int64(links[j, L_POINTS])):
             c = FIRST if q == 0 else SECOND
             old = rows[j, c + Q_PN]
             gap = rows[j, c + Q_TARGET] - along(vax, vay, wa, vbx, vby, wb, rows, j, c, nx, ny)
@@ -202,6 +211,20 @@ def laid_normals(bodies: np.ndarray, links: np.ndarray, rows: np.ndarray, j: int
                                                   step * nx, step * ny)
     bodies[sink, V_X], bodies[sink, V_Y], bodies[sink, V_W] = vax, vay, wa
     bodies[b, V_X], bodies[b, V_Y], bodies[b, V_W] = vbx, vby, wb
+    rows[j, M_IDLE] = 1.0 if idle(vax, vay, wa, vbx, vby, wb, rows, j) else 0.0
+
+
+@leaf
+def idle(vax: float, vay: float, wa: float, vbx: float, vby: float, wb: float, rows: np.ndarray, j: int) -> bool:
+    """Whether manifold ``j``'s friction visits would change nothing, found without them: every impulse it
+    holds is zero, so each friction bound is zero and a visit's total, clamped to ``[-0, 0]``, stays what it
+    was, unless the visit's sums overflow, which moderate anchors, masses, friction and velocities (below
+    ``MODERATE``) rule out. A speculative point still apart, the bulk of a brick wall's side joints, is one."""
+    if rows[j, FIRST + Q_PN] != 0.0 or rows[j, FIRST + Q_PT] != 0.0 or rows[j, M_MODERATE] == 0.0:
+        return False
+    if rows[j, SECOND + Q_PN] != 0.0 or rows[j, SECOND + Q_PT] != 0.0:
+        return False
+    return max(abs(vax), abs(vay), abs(wa), abs(vbx), abs(vby), abs(wb)) < MODERATE
 
 
 @inlined
@@ -231,15 +254,16 @@ def laid_pass(bodies: np.ndarray, links: np.ndarray, rows: np.ndarray, waves: in
     """One Gauss-Seidel pass over the layout, wave by wave (``tally[v]``: where wave ``v`` ends): every
     manifold's normals, then every first friction, then every second; ``contacts.accumulated_iteration``'s
     numbers (see the module doc)."""
-    begin = 0
+    begin = np.uint64(0)
     for v in range(waves):
-        end = tally[v]
+        end = np.uint64(tally[v])
         for j in range(begin, end):
             laid_normals(bodies, links, rows, j, relaxation)
         for j in range(begin, end):
-            laid_friction(bodies, links, rows, j, FIRST)
+            if rows[j, M_IDLE] == 0.0:
+                laid_friction(bodies, links, rows, j, FIRST)
         for j in range(begin, end):
-            if links[j, L_POINTS] == 2:
+            if links[j, L_POINTS] == 2 and rows[j, M_IDLE] == 0.0:
                 laid_friction(bodies, links, rows, j, SECOND)
         begin = end
 
@@ -252,9 +276,9 @@ def laid_remember(ids: np.ndarray, links: np.ndarray, rows: np.ndarray, m: int, 
     held = min(count, keys.shape[0])
     for k in range(held):
         keys[k, 0], keys[k, 1], keys[k, 2] = ids[k, A], ids[k, B], ids[k, FEATURE]
-    for j in range(m):
-        for q in range(links[j, L_POINTS]):
-            k = links[j, L_ROW] + q
+    for j in range(np.uint64(m)):
+        for q in range(np.int64(links[j, L_POINTS])):
+            k = np.int64(links[j, L_ROW]) + q
             if k < held:
                 c = FIRST if q == 0 else SECOND
                 carried[k, 0], carried[k, 1] = rows[j, c + Q_PN], rows[j, c + Q_PT]
@@ -287,3 +311,4 @@ def solve_laid(x: np.ndarray, y: np.ndarray, vx: np.ndarray, vy: np.ndarray, w: 
         laid_pass(bodies, links, rows, waves, tally, relaxation)
     give_velocities(bodies, vx, vy, w)
     return laid_remember(ids, links, rows, m, count, keys, carried)
+
