@@ -21,6 +21,13 @@ A pass then visits wave by wave (``wavefront``: a wave's manifolds share no body
 manifold's visits keep their order and a wave's manifolds commute exactly, so a pass gives the velocities
 and impulses of ``accumulated_iteration`` over the table in table order, to the bit, while the processor
 overlaps a wave's visits, none of which waits for the one before it.
+
+Two kinds of work are left out where they cannot change a bit: a block whose solve gives both its points
+what they had pushes zero impulses, which add a signed zero to each velocity and so change none that is not
+zero itself (done anyway when one is); and a manifold that holds no impulse after its normals (a point still
+apart, as a brick wall's side joints within the speculative margin) has friction bounds of zero, so its
+friction visits, clamped to ``[-0, 0]``, would change nothing (``idle``). On a pile at rest a pass costs
+about 13 ns a point (``python3 -m benchmarks.planar``), against about 19 for the table's pass.
 """
 
 from __future__ import annotations

@@ -6,7 +6,8 @@ and tangent impulses (the totals are clamped, ``pn >= 0`` and ``|pt| <= mu pn``,
 increment), and the next step starts from them, matched by the two bodies and the touching feature, so a
 resting pile is held by last step's impulses and the passes only fix what changed.
 
-One step of one world (``contacts.solve_velocities``, then positions):
+One step of one world (the velocity half is ``accumulated.solve_laid``: ``contacts.solve_velocities``'s
+numbers, on the step's manifolds laid out in the order the passes visit them; then positions):
 1. gravity;
 2. the points within ``speculative`` of touching (Box2D v3's 4 x its linear slop, 0.02 m, by default): a
    point still apart may close its gap within the step and no more, so a box is stopped where it lands
