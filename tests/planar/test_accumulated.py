@@ -53,26 +53,25 @@ def _laid_passes(s: PlanarState, ids: np.ndarray, table: np.ndarray, count: int,
     table order. ``order_of_waves`` visits the waves in another order (a broken layout, for the control)."""
     first, order, wave, tally, latest, links, rows, bodies = laid.laid_workspace(ids.shape[0], s.bodies)
     m = manifold_starts(ids, count, first)
-    waves = wavefronts(ids, first, m, latest, wave, tally, order)
+    waves = laid.visiting_order(ids, table, first, m, latest, wave, tally, order)
     laid.lay_out(s.x[0], s.y[0], s.inv_mass[0], s.inv_inertia[0], s.friction[0], ids, table, first, order, m, DT,
                  block, links, rows)
     laid.load_velocities(s.vx[0], s.vy[0], s.w[0], s.inv_mass[0], s.inv_inertia[0], bodies)
+    apart = [j for j in range(m) if rows[j, laid.M_OPEN] and laid.stays_apart(bodies, links, rows, j)]
+    assert len(apart) >= (2 if block else 0)  # passed over by the pass: the fast path is part of what is compared
     if order_of_waves != slice(None):  # the waves' manifolds rearranged: same rows, another visiting order
         begins = [0, *tally[:waves - 1]]
         spans = [(begins[v], tally[v]) for v in range(waves)][order_of_waves]
         pick = np.concatenate([np.arange(b, e) for b, e in spans])
         links[:m], rows[:m] = links[pick].copy(), rows[pick].copy()
         tally[:waves] = np.cumsum([e - b for b, e in spans])
-    idle = 0
     for _ in range(passes):
         laid.laid_pass(bodies, links, rows, waves, tally, relaxation)
-        idle += int(rows[:m, laid.M_IDLE].sum())
     impulses = np.empty((count, 2))
     for j in range(m):
         for q in range(int(links[j, laid.L_POINTS])):
             c = laid.FIRST if q == 0 else laid.SECOND
             impulses[int(links[j, laid.L_ROW]) + q] = rows[j, c + laid.Q_PN], rows[j, c + laid.Q_PT]
-    assert idle > 0  # some manifolds were passed over as idle: the fast path is part of what is compared
     return bodies[:s.bodies, :3].copy(), impulses
 
 
@@ -158,7 +157,7 @@ def test_the_warm_start_applies_each_bodys_impulses_in_table_order() -> None:
     warm_start(want.vx[0], want.vy[0], want.w[0], want.inv_mass[0], want.inv_inertia[0], ids, table, count)
     first, order, wave, tally, latest, links, rows, bodies = laid.laid_workspace(ids.shape[0], s.bodies)
     m = manifold_starts(ids, count, first)
-    wavefronts(ids, first, m, latest, wave, tally, order)
+    laid.visiting_order(ids, table, first, m, latest, wave, tally, order)
     laid.lay_out(s.x[0], s.y[0], s.inv_mass[0], s.inv_inertia[0], s.friction[0], ids, table, first, order, m, DT,
                  True, links, rows)
     laid.load_velocities(s.vx[0], s.vy[0], s.w[0], s.inv_mass[0], s.inv_inertia[0], bodies)
@@ -168,3 +167,34 @@ def test_the_warm_start_applies_each_bodys_impulses_in_table_order() -> None:
         assert getattr(s, field).tobytes() == getattr(want, field).tobytes(), field
     assert np.all(bodies[s.bodies] == 0.0)  # the ground's row: read, never written
     assert (ids[:count, B] >= 0).all()
+
+
+def test_the_visiting_order_keeps_every_bodys_order_and_sets_the_manifolds_apart_aside() -> None:
+    """``visiting_order``: every manifold once; each body meets its manifolds in table order (what makes the
+    numbers those of the table-order pass); the manifolds apart and holding nothing go to even groups, the
+    rest to odd ones (waves), whose manifolds share no body; and the waves are fewer than ``wavefronts``'
+    with the manifolds apart among them."""
+    s = _pile()
+    ids, table, count = _contacts(s)
+    first, order, group, tally, latest, *_ = laid.laid_workspace(ids.shape[0], s.bodies)
+    m = manifold_starts(ids, count, first)
+    groups = laid.visiting_order(ids, table, first, m, latest, group, tally, order)
+    assert sorted(order[:m]) == list(range(m))
+    visits = [int(j) for j in order[:m]]
+    for body in range(s.bodies):
+        mine = [j for j in visits if body in (ids[first[j], A], ids[first[j], B])]
+        assert mine == sorted(mine)
+    apart = {j for j in range(m) if all(table[k, DEPTH] < 0 for k in range(first[j], first[j + 1]))}
+    begins = [0, *tally[:groups - 1]]
+    odd = 0
+    for g in range(groups):
+        members = visits[begins[g]:tally[g]]
+        assert all((j in apart) == (g % 2 == 0) for j in members)
+        if g % 2 == 1 and members:
+            odd += 1
+            bodies = [int(b) for j in members for b in ids[first[j], :2] if b >= 0]
+            assert len(bodies) == len(set(bodies))
+    assert len(apart) >= 4
+    plain_waves = wavefronts(ids, first, m, latest, np.empty(m, np.int64), np.empty(m + 1, np.int64),
+                             np.empty(m, np.int64))
+    assert odd < plain_waves

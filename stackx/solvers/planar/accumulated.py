@@ -16,36 +16,43 @@ velocities in one compact array and a static body read as an identity state. ``l
   row that a manifold on the ground writes its ground side to and nothing reads, so no visit tests for the
   ground.
 
-A pass then visits wave by wave (``wavefront``: a wave's manifolds share no body): every manifold's normals
-(both at once for a two-point block), then every manifold's first friction, then every second one. Each
-manifold's visits keep their order and a wave's manifolds commute exactly, so a pass gives the velocities
-and impulses of ``accumulated_iteration`` over the table in table order, to the bit, while the processor
-overlaps a wave's visits, none of which waits for the one before it.
+A pass then visits the manifolds group by group (``visiting_order``). The odd groups are waves (``wavefront``:
+manifolds that share no body): every manifold's normals (both at once for a two-point block), then every
+first friction, then every second one; each manifold's visits keep their order and a wave's manifolds commute
+exactly, while the processor overlaps a wave's visits, none of which waits for the one before it. The even
+groups hold the manifolds whose points were all apart and held nothing when the step began (a brick wall's
+side joints within the speculative margin: a third of its manifolds), each visited on its own between the
+waves. Every body meets its manifolds in table order, so a pass gives the velocities and impulses of
+``accumulated_iteration`` over the table in table order, to the bit.
 
-Two kinds of work are left out where they cannot change a bit: a block whose solve gives both its points
-what they had pushes zero impulses, which add a signed zero to each velocity and so change none that is not
-zero itself (done anyway when one is); and a manifold that holds no impulse after its normals (a point still
-apart, as a brick wall's side joints within the speculative margin) has friction bounds of zero, so its
-friction visits, clamped to ``[-0, 0]``, would change nothing (``idle``). On a pile at rest a pass costs
-about 13 ns a point (``python3 -m benchmarks.planar``), against about 19 for the table's pass.
+Work is left out only where it cannot change a bit: a manifold apart whose visit would change nothing is
+found so without writing anything (``stays_apart``: two points separating and no impulse held, so its block
+keeps +0.0 and pushes zeros, and its frictions are bounded by zero); a block whose solve gives both points
+what they had pushes zero impulses, which add a signed zero to each velocity and so change none that is
+not zero itself (done anyway when one is); a manifold of that group that holds no impulse after its normals
+has friction visits clamped to ``[-0, 0]`` that would change nothing (``idle``). On a pile at rest a pass
+costs about 13 ns a point (``python3 -m benchmarks.planar``), against about 19 for the table's pass; a
+side joint passed over costs about a third of a visit.
 """
 
 from __future__ import annotations
+
+import math
 
 import numpy as np
 
 from stackx.kernel import inlined, kernel, leaf
 from stackx.solvers.planar.columns import A, B, DEPTH, FEATURE, NX, NY, PN, PT, PX, PY
 from stackx.solvers.planar.contacts import BLOCK_CONDITION, effective_mass, gravity, recall, two_point_lcp
-from stackx.solvers.planar.wavefront import manifold_starts, wavefronts
+from stackx.solvers.planar.wavefront import manifold_starts
 
 # a manifold's row: its normal, friction (one for both points: the same two bodies), normal mass matrix and
 # whether the block is solved (1.0) or its points visited one by one (0.0); then each point's anchors on A
 # and B, normal and tangent effective masses, target normal velocity and accumulated impulses
-M_NX, M_NY, M_MU, M_K11, M_K12, M_K22, M_BLOCK, M_MODERATE, M_IDLE = range(9)
+M_NX, M_NY, M_MU, M_K11, M_K12, M_K22, M_DET, M_BLOCK, M_MODERATE, M_OPEN = range(10)
 Q_RAX, Q_RAY, Q_RBX, Q_RBY, Q_KN, Q_KT, Q_TARGET, Q_PN, Q_PT = range(9)
-FIRST, SECOND = 9, 18  # where each point's columns begin
-ROW_COLUMNS = 27
+FIRST, SECOND = 10, 19  # where each point's columns begin
+ROW_COLUMNS = 28
 MODERATE = 1e100  # velocities, anchors, masses and friction below this cannot overflow a visit's sums
 # a manifold's ints: the body A is read from (the ground's row for the ground) and written to (the sink row
 # for the ground), its body B, its first table row and its number of points
@@ -56,10 +63,10 @@ V_X, V_Y, V_W, INV_M, INV_I = range(5)
 
 @kernel
 def laid_workspace(room: int, bodies: int) -> tuple[np.ndarray, ...]:
-    """Room for the layout of ``room`` points of ``bodies`` bodies: ``(first, order, wave, tally, latest,
+    """Room for the layout of ``room`` points of ``bodies`` bodies: ``(first, order, group, tally, latest,
     links, rows, velocities)``; the bodies' rows are ``bodies + 2`` (the ground's, the sink)."""
     return (np.empty(room + 1, np.int64), np.empty(room, np.int64), np.empty(room, np.int64),
-            np.empty(room + 1, np.int64), np.empty(bodies, np.int64), np.empty((room, 5), np.uint64),
+            np.empty(2 * room + 2, np.int64), np.empty(bodies, np.int64), np.empty((room, 5), np.uint64),
             np.empty((room, ROW_COLUMNS)), np.zeros((bodies + 2, 5)))
 
 
@@ -111,9 +118,11 @@ def lay_out(x: np.ndarray, y: np.ndarray, inv_mass: np.ndarray, inv_inertia: np.
             cb2 = rows[j, SECOND + Q_RBX] * ny - rows[j, SECOND + Q_RBY] * nx
             k12 = ima + imb + iia * ca1 * ca2 + iib * cb1 * cb2
             det = k11 * k22 - k12 * k12
-            rows[j, M_K11], rows[j, M_K12], rows[j, M_K22] = k11, k12, k22
+            rows[j, M_K11], rows[j, M_K12], rows[j, M_K22], rows[j, M_DET] = k11, k12, k22, det
             if block and k11 * k11 < BLOCK_CONDITION * det:
                 rows[j, M_BLOCK] = 1.0
+        rows[j, M_OPEN] = 1.0 if (rows[j, M_BLOCK] != 0.0 and moderate and rows[j, FIRST + Q_TARGET] < 0.0
+                                  and rows[j, SECOND + Q_TARGET] < 0.0) else 0.0
 
 
 @leaf
@@ -218,11 +227,50 @@ def laid_normals(bodies: np.ndarray, links: np.ndarray, rows: np.ndarray, j: int
                                                   step * nx, step * ny)
     bodies[sink, V_X], bodies[sink, V_Y], bodies[sink, V_W] = vax, vay, wa
     bodies[b, V_X], bodies[b, V_Y], bodies[b, V_W] = vbx, vby, wb
-    rows[j, M_IDLE] = 1.0 if idle(vax, vay, wa, vbx, vby, wb, rows, j) else 0.0
 
 
 @leaf
-def idle(vax: float, vay: float, wa: float, vbx: float, vby: float, wb: float, rows: np.ndarray, j: int) -> bool:
+def apart(k11: float, k12: float, k22: float, det: float, b1: float, b2: float) -> bool:
+    """Whether the first answer of ``contacts.two_point_lcp`` (both points pressing, ``(N1, N2) / det`` with
+    ``det > 0`` for a block) fails, found without its divisions: it does when a numerator is negative by more
+    than ``det`` times the smallest normal number, so that the quotient is negative and not a zero. False
+    where that is not sure."""
+    margin = det * 1e-300
+    return k12 * b2 - k22 * b1 < -margin or k12 * b1 - k11 * b2 < -margin
+
+
+@inlined
+def stays_apart(bodies: np.ndarray, links: np.ndarray, rows: np.ndarray, j: int) -> bool:
+    """Whether the visit of manifold ``j`` (a block of two points apart, ``M_OPEN``) would change nothing,
+    decided without most of its work and without writing: so when it holds nothing (both totals +0.0, no
+    friction), both points separate (``b1, b2 > 0`` as ``contacts.block_step`` finds them) and the first
+    answer fails (``apart``). Every other answer of ``two_point_lcp`` is then a zero, and relaxing from +0.0
+    gives +0.0, so the block keeps its totals and pushes zeros, which change no velocity that is not zero
+    (all six are checked), and its frictions are bounded by zero (``idle``: the velocities checked
+    moderate)."""
+    a1, a2 = rows[j, FIRST + Q_PN], rows[j, SECOND + Q_PN]
+    if a1 != 0.0 or a2 != 0.0 or rows[j, FIRST + Q_PT] != 0.0 or rows[j, SECOND + Q_PT] != 0.0:
+        return False
+    if math.copysign(1.0, a1) < 0.0 or math.copysign(1.0, a2) < 0.0:
+        return False
+    a, b = links[j, L_A], links[j, L_B]
+    vax, vay, wa = bodies[a, V_X], bodies[a, V_Y], bodies[a, V_W]
+    vbx, vby, wb = bodies[b, V_X], bodies[b, V_Y], bodies[b, V_W]
+    if not (vax != 0.0 and vay != 0.0 and wa != 0.0 and vbx != 0.0 and vby != 0.0 and wb != 0.0):
+        return False
+    if max(abs(vax), abs(vay), abs(wa), abs(vbx), abs(vby), abs(wb)) >= MODERATE:
+        return False
+    nx, ny = rows[j, M_NX], rows[j, M_NY]
+    k11, k12, k22 = rows[j, M_K11], rows[j, M_K12], rows[j, M_K22]
+    b1 = along(vax, vay, wa, vbx, vby, wb, rows, j, FIRST, nx, ny) - rows[j, FIRST + Q_TARGET] - (
+        k11 * a1 + k12 * a2)
+    b2 = along(vax, vay, wa, vbx, vby, wb, rows, j, SECOND, nx, ny) - rows[j, SECOND + Q_TARGET] - (
+        k12 * a1 + k22 * a2)
+    return b1 > 0.0 and b2 > 0.0 and apart(k11, k12, k22, rows[j, M_DET], b1, b2)
+
+
+@leaf
+def idle(bodies: np.ndarray, links: np.ndarray, rows: np.ndarray, j: int) -> bool:
     """Whether manifold ``j``'s friction visits would change nothing, found without them: every impulse it
     holds is zero, so each friction bound is zero and a visit's total, clamped to ``[-0, 0]``, stays what it
     was, unless the visit's sums overflow, which moderate anchors, masses, friction and velocities (below
@@ -231,7 +279,9 @@ def idle(vax: float, vay: float, wa: float, vbx: float, vby: float, wb: float, r
         return False
     if rows[j, SECOND + Q_PN] != 0.0 or rows[j, SECOND + Q_PT] != 0.0:
         return False
-    return max(abs(vax), abs(vay), abs(wa), abs(vbx), abs(vby), abs(wb)) < MODERATE
+    a, b = links[j, L_A], links[j, L_B]
+    return max(abs(bodies[a, V_X]), abs(bodies[a, V_Y]), abs(bodies[a, V_W]), abs(bodies[b, V_X]),
+               abs(bodies[b, V_Y]), abs(bodies[b, V_W])) < MODERATE
 
 
 @inlined
@@ -256,21 +306,81 @@ def laid_friction(bodies: np.ndarray, links: np.ndarray, rows: np.ndarray, j: in
 
 
 @leaf
-def laid_pass(bodies: np.ndarray, links: np.ndarray, rows: np.ndarray, waves: int, tally: np.ndarray,
+def visiting_order(ids: np.ndarray, table: np.ndarray, first: np.ndarray, m: int, latest: np.ndarray,
+                   group: np.ndarray, tally: np.ndarray, order: np.ndarray) -> int:
+    """``order[0..m]``: the manifolds (numbered as in ``first``) in the order the passes visit them, group by
+    group; returns the number of groups, and ``tally[g]`` is where group ``g`` ends in ``order``.
+
+    ``wavefront``'s waves, with the manifolds still apart taken out of them: a manifold whose points are all
+    apart and hold no impulse (a brick wall's side joints) mostly changes nothing, yet as a wave's member it
+    would hold every later manifold of its two bodies one wave back, and a wall's waves would be twice as
+    many and half as full. Such a manifold goes instead to the group just before the wave in which either
+    of its bodies is next visited by another manifold (even groups: ``2 v``, before wave ``v``, the odd group
+    ``2 v + 1``), where the pass visits it on its own, and groups of such manifolds one after the other in
+    table order. Every body still meets its manifolds in table order (a manifold goes after all earlier ones
+    of its bodies and before all later ones), so the numbers are those of the table-order pass whatever such
+    a manifold does; which ones are set apart only changes how fast."""
+    for i in range(latest.shape[0]):
+        latest[i] = 0
+    for g in range(2 * m + 2):
+        tally[g] = 0
+    groups = 0
+    for j in range(m):
+        k = first[j]
+        a, b = ids[k, A], ids[k, B]
+        now = latest[b]
+        if a >= 0 and latest[a] > now:
+            now = latest[a]
+        still = True
+        for i in range(k, first[j + 1]):
+            still = still and table[i, DEPTH] < 0.0 and table[i, PN] == 0.0 and table[i, PT] == 0.0
+        if still:
+            g = 2 * now  # before wave ``now``: after every earlier manifold of its bodies
+        else:
+            now += 1
+            g = 2 * now - 1  # wave ``now - 1``
+        latest[b] = now
+        if a >= 0:
+            latest[a] = now
+        group[j] = g
+        tally[g + 1] += 1
+        if g + 1 > groups:
+            groups = g + 1
+    for g in range(1, groups + 1):  # tally[g]: where group g begins
+        tally[g] += tally[g - 1]
+    for j in range(m):  # tally[g] moves from where group g begins to where it ends
+        order[tally[group[j]]] = j
+        tally[group[j]] += 1
+    return groups
+
+
+@leaf
+def laid_pass(bodies: np.ndarray, links: np.ndarray, rows: np.ndarray, groups: int, tally: np.ndarray,
               relaxation: float) -> None:
-    """One Gauss-Seidel pass over the layout, wave by wave (``tally[v]``: where wave ``v`` ends): every
-    manifold's normals, then every first friction, then every second; ``contacts.accumulated_iteration``'s
-    numbers (see the module doc)."""
+    """One Gauss-Seidel pass over the layout, group by group (``visiting_order``; ``tally[g]``: where group
+    ``g`` ends): an even group's manifolds one after the other, each its normals then its frictions; an odd
+    group's (a wave's) every manifold's normals, then every first friction, then every second;
+    ``contacts.accumulated_iteration``'s numbers (see the module doc)."""
     begin = np.uint64(0)
-    for v in range(waves):
-        end = np.uint64(tally[v])
+    for g in range(groups):
+        end = np.uint64(tally[g])
+        if g % 2 == 0:
+            for j in range(begin, end):
+                if rows[j, M_OPEN] != 0.0 and stays_apart(bodies, links, rows, j):
+                    continue
+                laid_normals(bodies, links, rows, j, relaxation)
+                if not idle(bodies, links, rows, j):
+                    laid_friction(bodies, links, rows, j, FIRST)
+                    if links[j, L_POINTS] == 2:
+                        laid_friction(bodies, links, rows, j, SECOND)
+            begin = end
+            continue
         for j in range(begin, end):
             laid_normals(bodies, links, rows, j, relaxation)
         for j in range(begin, end):
-            if rows[j, M_IDLE] == 0.0:
-                laid_friction(bodies, links, rows, j, FIRST)
+            laid_friction(bodies, links, rows, j, FIRST)
         for j in range(begin, end):
-            if links[j, L_POINTS] == 2 and rows[j, M_IDLE] == 0.0:
+            if links[j, L_POINTS] == 2:
                 laid_friction(bodies, links, rows, j, SECOND)
         begin = end
 
@@ -309,7 +419,7 @@ def solve_laid(x: np.ndarray, y: np.ndarray, vx: np.ndarray, vy: np.ndarray, w: 
     if carry:
         recall(ids, table, count, keys, carried, held)
     m = manifold_starts(ids, count, first)
-    waves = wavefronts(ids, first, m, latest, wave, tally, order)
+    waves = visiting_order(ids, table, first, m, latest, wave, tally, order)
     lay_out(x, y, inv_mass, inv_inertia, friction, ids, table, first, order, m, dt, block, links, rows)
     load_velocities(vx, vy, w, inv_mass, inv_inertia, bodies)
     if carry:
