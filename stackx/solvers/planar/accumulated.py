@@ -32,7 +32,7 @@ what they had pushes zero impulses, which add a signed zero to each velocity and
 not zero itself (done anyway when one is); a manifold of that group that holds no impulse after its normals
 has friction visits clamped to ``[-0, 0]`` that would change nothing (``idle``). On a pile at rest a pass
 costs about 13 ns a point (``python3 -m benchmarks.planar``), against about 19 for the table's pass; a
-side joint passed over costs about a third of a visit.
+side joint passed over costs about a fifth of a resting manifold's visit.
 """
 
 from __future__ import annotations
@@ -75,7 +75,7 @@ def lay_out(x: np.ndarray, y: np.ndarray, inv_mass: np.ndarray, inv_inertia: np.
             ids: np.ndarray, table: np.ndarray, first: np.ndarray, order: np.ndarray, m: int, dt: float,
             block: bool, links: np.ndarray, rows: np.ndarray) -> None:
     """The rows of the ``m`` manifolds (``first``: where each begins, ``order``: the visiting order from
-    ``wavefronts``), with what ``contacts.prepare``, ``block_matrix`` and ``set_targets`` find (the same
+    ``visiting_order``), with what ``contacts.prepare``, ``block_matrix`` and ``set_targets`` find (the same
     arithmetic) and the impulses the table holds (``recall``'s, or zeros). ``block``: whether a two-point
     manifold's normals may be solved together."""
     ground = x.shape[0]
@@ -313,8 +313,8 @@ def visiting_order(ids: np.ndarray, table: np.ndarray, first: np.ndarray, m: int
 
     ``wavefront``'s waves, with the manifolds still apart taken out of them: a manifold whose points are all
     apart and hold no impulse (a brick wall's side joints) mostly changes nothing, yet as a wave's member it
-    would hold every later manifold of its two bodies one wave back, and a wall's waves would be twice as
-    many and half as full. Such a manifold goes instead to the group just before the wave in which either
+    would hold every later manifold of its two bodies one wave back (the 65-brick wall: 55 waves, 45 without
+    them). Such a manifold goes instead to the group just before the wave in which either
     of its bodies is next visited by another manifold (even groups: ``2 v``, before wave ``v``, the odd group
     ``2 v + 1``), where the pass visits it on its own, and groups of such manifolds one after the other in
     table order. Every body still meets its manifolds in table order (a manifold goes after all earlier ones
@@ -407,7 +407,7 @@ def solve_laid(x: np.ndarray, y: np.ndarray, vx: np.ndarray, vy: np.ndarray, w: 
                inv_mass: np.ndarray, inv_inertia: np.ndarray, friction: np.ndarray, g: float, dt: float,
                carry: bool, iterations: int, block: bool, relaxation: float, ids: np.ndarray, table: np.ndarray,
                count: int, keys: np.ndarray, carried: np.ndarray, held: int, first: np.ndarray, order: np.ndarray,
-               wave: np.ndarray, tally: np.ndarray, latest: np.ndarray, links: np.ndarray, rows: np.ndarray,
+               group: np.ndarray, tally: np.ndarray, latest: np.ndarray, links: np.ndarray, rows: np.ndarray,
                bodies: np.ndarray) -> int:
     """``contacts.solve_velocities`` on the layout (``laid_workspace``'s room, at least ``count`` points), the
     same numbers: gravity; the last step's impulses found again (``carry``) and the step laid out; warm start;
@@ -419,13 +419,13 @@ def solve_laid(x: np.ndarray, y: np.ndarray, vx: np.ndarray, vy: np.ndarray, w: 
     if carry:
         recall(ids, table, count, keys, carried, held)
     m = manifold_starts(ids, count, first)
-    waves = visiting_order(ids, table, first, m, latest, wave, tally, order)
+    groups = visiting_order(ids, table, first, m, latest, group, tally, order)
     lay_out(x, y, inv_mass, inv_inertia, friction, ids, table, first, order, m, dt, block, links, rows)
     load_velocities(vx, vy, w, inv_mass, inv_inertia, bodies)
     if carry:
         laid_warm_start(bodies, links, rows, m)
     for _ in range(iterations):
-        laid_pass(bodies, links, rows, waves, tally, relaxation)
+        laid_pass(bodies, links, rows, groups, tally, relaxation)
     give_velocities(bodies, vx, vy, w)
     return laid_remember(ids, links, rows, m, count, keys, carried)
 

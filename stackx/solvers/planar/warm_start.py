@@ -97,12 +97,12 @@ def planar_warm_start_advance(x: np.ndarray, y: np.ndarray, angle: np.ndarray, v
         shift = np.zeros((x.shape[1], 2))
         ids, table, count, near = find_contacts_near(xb, yb, ab, hxb, hyb, im, speculative[b], near, wide, ids,
                                                      table)
-        first, order, wave, tally, latest, links, rows, bodies = laid_workspace(ids.shape[0], x.shape[1])
+        first, order, group, tally, latest, links, rows, bodies = laid_workspace(ids.shape[0], x.shape[1])
         for _ in range(steps):
             if rows.shape[0] < ids.shape[0]:  # the table grew
-                first, order, wave, tally, latest, links, rows, bodies = laid_workspace(ids.shape[0], x.shape[1])
+                first, order, group, tally, latest, links, rows, bodies = laid_workspace(ids.shape[0], x.shape[1])
             held[b] = solve_laid(xb, yb, vxb, vyb, wb, im, ii, mub, g[b], dt[b], carry[b], iterations[b], block[b],
-                                 relaxation[b], ids, table, count, keys[b], carried[b], held[b], first, order, wave,
+                                 relaxation[b], ids, table, count, keys[b], carried[b], held[b], first, order, group,
                                  tally, latest, links, rows, bodies)
             integrate_positions(xb, yb, ab, vxb, vyb, wb, dt[b])
             moved = True
