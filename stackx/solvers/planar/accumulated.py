@@ -47,8 +47,10 @@ from stackx.solvers.planar.contacts import BLOCK_CONDITION, effective_mass, grav
 from stackx.solvers.planar.wavefront import manifold_starts
 
 # a manifold's row: its normal, friction (one for both points: the same two bodies), normal mass matrix and
-# whether the block is solved (1.0) or its points visited one by one (0.0); then each point's anchors on A
-# and B, normal and tangent effective masses, target normal velocity and accumulated impulses
+# its determinant, whether the block is solved (1.0) or its points visited one by one (0.0), whether its
+# anchors, tangent masses and friction are moderate (``MODERATE``) and whether it is a block of two points
+# apart (``stays_apart``); then each point's anchors on A and B, normal and tangent effective masses, target
+# normal velocity and accumulated impulses
 M_NX, M_NY, M_MU, M_K11, M_K12, M_K22, M_DET, M_BLOCK, M_MODERATE, M_OPEN = range(10)
 Q_RAX, Q_RAY, Q_RBX, Q_RBY, Q_KN, Q_KT, Q_TARGET, Q_PN, Q_PT = range(9)
 FIRST, SECOND = 10, 19  # where each point's columns begin
