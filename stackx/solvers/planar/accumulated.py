@@ -258,17 +258,14 @@ def stays_apart(bodies: np.ndarray, links: np.ndarray, rows: np.ndarray, j: int)
     a, b = links[j, L_A], links[j, L_B]
     vax, vay, wa = bodies[a, V_X], bodies[a, V_Y], bodies[a, V_W]
     vbx, vby, wb = bodies[b, V_X], bodies[b, V_Y], bodies[b, V_W]
-    if not (vax != 0.0 and vay != 0.0 and wa != 0.0 and vbx != 0.0 and vby != 0.0 and wb != 0.0):
-        return False
-    if max(abs(vax), abs(vay), abs(wa), abs(vbx), abs(vby), abs(wb)) >= MODERATE:
+    speeds = abs(vax), abs(vay), abs(wa), abs(vbx), abs(vby), abs(wb)
+    if not (min(speeds) > 0.0 and max(speeds) < MODERATE):  # a NaN fails the comparisons below
         return False
     nx, ny = rows[j, M_NX], rows[j, M_NY]
-    k11, k12, k22 = rows[j, M_K11], rows[j, M_K12], rows[j, M_K22]
-    b1 = along(vax, vay, wa, vbx, vby, wb, rows, j, FIRST, nx, ny) - rows[j, FIRST + Q_TARGET] - (
-        k11 * a1 + k12 * a2)
-    b2 = along(vax, vay, wa, vbx, vby, wb, rows, j, SECOND, nx, ny) - rows[j, SECOND + Q_TARGET] - (
-        k12 * a1 + k22 * a2)
-    return b1 > 0.0 and b2 > 0.0 and apart(k11, k12, k22, rows[j, M_DET], b1, b2)
+    # block_step's b: the velocity less the target less K times the totals, which are +0.0 (K finite here)
+    b1 = along(vax, vay, wa, vbx, vby, wb, rows, j, FIRST, nx, ny) - rows[j, FIRST + Q_TARGET]
+    b2 = along(vax, vay, wa, vbx, vby, wb, rows, j, SECOND, nx, ny) - rows[j, SECOND + Q_TARGET]
+    return b1 > 0.0 and b2 > 0.0 and apart(rows[j, M_K11], rows[j, M_K12], rows[j, M_K22], rows[j, M_DET], b1, b2)
 
 
 @leaf
