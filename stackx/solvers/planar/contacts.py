@@ -39,7 +39,7 @@ Functions, in the order a step uses them:
   normal step optionally over-relaxed;
 - ``solve_velocities(...)``: the velocity half of a step with accumulated impulses on the step's points, the
   stages above in order: gravity, anchors and masses, targets, warm start (or none), iterations, remember;
-  ``accumulated.solve_laid`` gives the same numbers from the step's manifolds laid out once in visiting order
+  ``passes.solve_laid`` gives the same numbers from the step's manifolds laid out once in visiting order
   (what ``planar-warm-start`` steps with); the table's passes here are the plain statement it is tested
   against;
 - ``integrate_positions(...)``: positions and angles move with the velocities over ``dt``;

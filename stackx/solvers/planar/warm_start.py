@@ -6,7 +6,7 @@ and tangent impulses (the totals are clamped, ``pn >= 0`` and ``|pt| <= mu pn``,
 increment), and the next step starts from them, matched by the two bodies and the touching feature, so a
 resting pile is held by last step's impulses and the passes only fix what changed.
 
-One step of one world (the velocity half is ``accumulated.solve_laid``: ``contacts.solve_velocities``'s
+One step of one world (the velocity half is ``passes.solve_laid``: ``contacts.solve_velocities``'s
 numbers, on the step's manifolds laid out in the order the passes visit them; then positions):
 1. gravity;
 2. the points within ``speculative`` of touching (Box2D v3's 4 x its linear slop, 0.02 m, by default): a
@@ -44,7 +44,7 @@ from stackx.registry import solvers
 from stackx.solvers.base import Correction, LabCorrection
 from stackx.solvers.contacts import speculative_field
 from stackx.solvers.planar.base import PlanarMemorySolver, sequential_only
-from stackx.solvers.planar.accumulated import laid_workspace, solve_laid
+from stackx.solvers.planar.passes import laid_workspace, solve_laid
 from stackx.solvers.planar.contacts import (contact_workspace, correct_positions, find_contacts_near,
                                             integrate_positions, near_workspace, observe_contacts)
 

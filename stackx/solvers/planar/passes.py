@@ -1,4 +1,5 @@
-"""Accumulated-impulse passes on a step's contacts laid out in the order the passes visit them.
+"""Velocity passes on a step's contacts laid out in the order they visit them: accumulated impulses
+(``planar-warm-start``) and the lab's per-visit impulses (``planar-pgs``).
 
 ``contacts.accumulated_iteration`` reads each point from the generic contact table: a row of 25 numbers
 (200 bytes) of which a visit needs about half, rows reached in the wave order (``wavefront``) and so not one
@@ -10,7 +11,7 @@ velocities in one compact array and a static body read as an identity state. ``l
 
 - one row per manifold, in visiting order, with all its visits read and nothing else: the normal and
   friction, the 2 x 2 normal mass matrix of a two-point manifold and whether it is solved as a block, and
-  per point its anchors, normal and tangent masses, target velocity and accumulated impulses (``ROW_COLUMNS``);
+  per point its anchors, normal and tangent masses, target velocity, depth and impulses (``ROW_COLUMNS``);
 - the bodies' velocities and inverse masses in one row each (``bodies``), the ground a row of zeros read as
   a body (its zeros enter the sums as ``u - 0.0``, which is ``u``, the numbers of skipping it) and a last
   row that a manifold on the ground writes its ground side to and nothing reads, so no visit tests for the
@@ -23,7 +24,9 @@ exactly, while the processor overlaps a wave's visits, none of which waits for t
 groups hold the manifolds whose points were all apart and held nothing when the step began (a brick wall's
 side joints within the speculative margin: a third of its manifolds), each visited on its own between the
 waves. Every body meets its manifolds in table order, so a pass gives the velocities and impulses of
-``accumulated_iteration`` over the table in table order, to the bit.
+``accumulated_iteration`` over the table in table order, to the bit. The lab's pass (``laid_pass`` with
+``lab``) reads the same rows: each point's normal then its friction, a wave's first points then its second
+ones, the numbers of ``pgs.lab_pass``.
 
 Work is left out only where it cannot change a bit: a manifold apart whose visit would change nothing is
 found so without writing anything (``stays_apart``: two points separating and no impulse held, so its block
@@ -50,11 +53,11 @@ from stackx.solvers.planar.wavefront import manifold_starts
 # its determinant, whether the block is solved (1.0) or its points visited one by one (0.0), whether its
 # anchors, tangent masses and friction are moderate (``MODERATE``) and whether it is a block of two points
 # apart (``stays_apart``); then each point's anchors on A and B, normal and tangent effective masses, target
-# normal velocity and accumulated impulses
+# normal velocity, depth (for the lab's visits, which pass over a point not overlapping) and impulses
 M_NX, M_NY, M_MU, M_K11, M_K12, M_K22, M_DET, M_BLOCK, M_MODERATE, M_OPEN = range(10)
-Q_RAX, Q_RAY, Q_RBX, Q_RBY, Q_KN, Q_KT, Q_TARGET, Q_PN, Q_PT = range(9)
-FIRST, SECOND = 10, 19  # where each point's columns begin
-ROW_COLUMNS = 28
+Q_RAX, Q_RAY, Q_RBX, Q_RBY, Q_KN, Q_KT, Q_TARGET, Q_DEPTH, Q_PN, Q_PT = range(10)
+FIRST, SECOND = 10, 20  # where each point's columns begin
+ROW_COLUMNS = 30
 MODERATE = 1e100  # velocities, anchors, masses and friction below this cannot overflow a visit's sums
 # a manifold's ints: the body A is read from (the ground's row for the ground) and written to (the sink row
 # for the ground), its body B, its first table row and its number of points
@@ -106,6 +109,7 @@ def lay_out(x: np.ndarray, y: np.ndarray, inv_mass: np.ndarray, inv_inertia: np.
             rows[j, c + Q_KT] = effective_mass(ima, iia, rax, ray, imb, iib, rbx, rby, -ny, nx)
             d = table[i, DEPTH]
             rows[j, c + Q_TARGET] = d / dt if d < 0.0 else 0.0
+            rows[j, c + Q_DEPTH] = d
             rows[j, c + Q_PN], rows[j, c + Q_PT] = table[i, PN], table[i, PT]
             moderate = moderate and max(abs(rax), abs(ray), abs(rbx), abs(rby), rows[j, c + Q_KT]) < MODERATE
         if points == 1:  # no second point: nothing it holds
@@ -304,6 +308,34 @@ def laid_friction(bodies: np.ndarray, links: np.ndarray, rows: np.ndarray, j: in
                                 bodies[b, INV_I], rows, j, c, -step * ny, step * nx)
 
 
+@inlined
+def lab_visit(bodies: np.ndarray, links: np.ndarray, rows: np.ndarray, j: int, c: int) -> None:
+    """``pgs.lab_pass``'s visit of the point of row ``j`` whose columns begin at ``c``, the same arithmetic: stop the approach, then friction within ``mu``
+    times this visit's normal impulse; the point's ``PN``/``PT`` add up what the visits gave."""
+    if rows[j, c + Q_DEPTH] <= 0.0:
+        return
+    a, sink, b = links[j, L_A], links[j, L_SINK], links[j, L_B]
+    vax, vay, wa, ima, iia = bodies[a, V_X], bodies[a, V_Y], bodies[a, V_W], bodies[a, INV_M], bodies[a, INV_I]
+    vbx, vby, wb, imb, iib = bodies[b, V_X], bodies[b, V_Y], bodies[b, V_W], bodies[b, INV_M], bodies[b, INV_I]
+    nx, ny = rows[j, M_NX], rows[j, M_NY]
+    un = along(vax, vay, wa, vbx, vby, wb, rows, j, c, nx, ny)
+    pn = 0.0
+    if un < 0.0:
+        pn = -un * rows[j, c + Q_KN]
+        vax, vay, wa, vbx, vby, wb = push(vax, vay, wa, vbx, vby, wb, ima, iia, imb, iib, rows, j, c, pn * nx,
+                                          pn * ny)
+        rows[j, c + Q_PN] += pn
+    limit = rows[j, M_MU] * pn
+    if limit > 0.0:
+        pt = -along(vax, vay, wa, vbx, vby, wb, rows, j, c, -ny, nx) * rows[j, c + Q_KT]
+        pt = min(max(pt, -limit), limit)
+        vax, vay, wa, vbx, vby, wb = push(vax, vay, wa, vbx, vby, wb, ima, iia, imb, iib, rows, j, c, -pt * ny,
+                                          pt * nx)
+        rows[j, c + Q_PT] += pt
+    bodies[sink, V_X], bodies[sink, V_Y], bodies[sink, V_W] = vax, vay, wa
+    bodies[b, V_X], bodies[b, V_Y], bodies[b, V_W] = vbx, vby, wb
+
+
 @leaf
 def visiting_order(ids: np.ndarray, table: np.ndarray, first: np.ndarray, m: int, latest: np.ndarray,
                    group: np.ndarray, tally: np.ndarray, order: np.ndarray) -> int:
@@ -355,15 +387,24 @@ def visiting_order(ids: np.ndarray, table: np.ndarray, first: np.ndarray, m: int
 
 @leaf
 def laid_pass(bodies: np.ndarray, links: np.ndarray, rows: np.ndarray, groups: int, tally: np.ndarray,
-              relaxation: float) -> None:
+              relaxation: float, lab: bool) -> None:
     """One Gauss-Seidel pass over the layout, group by group (``visiting_order``; ``tally[g]``: where group
-    ``g`` ends): an even group's manifolds one after the other, each its normals then its frictions; an odd
-    group's (a wave's) every manifold's normals, then every first friction, then every second;
-    ``contacts.accumulated_iteration``'s numbers (see the module doc)."""
+    ``g`` ends). Accumulated (``contacts.accumulated_iteration``'s numbers, see the module doc): an even
+    group's manifolds one after the other, each its normals then its frictions; an odd group's (a wave's)
+    every manifold's normals, then every first friction, then every second. With ``lab``, the lab's visits
+    (``pgs.lab_pass``'s numbers; ``relaxation`` unused): each point's normal then friction, in a wave every
+    first point, then every second."""
     begin = np.uint64(0)
     for g in range(groups):
         end = np.uint64(tally[g])
-        if g % 2 == 0:
+        if lab:
+            for q in range(2 if g % 2 == 1 else 1):  # a wave: its first points, then its second
+                for j in range(begin, end):
+                    if g % 2 == 0 or q == 0:
+                        lab_visit(bodies, links, rows, j, FIRST)
+                    if links[j, L_POINTS] == 2 and (g % 2 == 0 or q == 1):
+                        lab_visit(bodies, links, rows, j, SECOND)
+        elif g % 2 == 0:
             for j in range(begin, end):
                 if rows[j, M_OPEN] != 0.0 and stays_apart(bodies, links, rows, j):
                     continue
@@ -372,15 +413,14 @@ def laid_pass(bodies: np.ndarray, links: np.ndarray, rows: np.ndarray, groups: i
                     laid_friction(bodies, links, rows, j, FIRST)
                     if links[j, L_POINTS] == 2:
                         laid_friction(bodies, links, rows, j, SECOND)
-            begin = end
-            continue
-        for j in range(begin, end):
-            laid_normals(bodies, links, rows, j, relaxation)
-        for j in range(begin, end):
-            laid_friction(bodies, links, rows, j, FIRST)
-        for j in range(begin, end):
-            if links[j, L_POINTS] == 2:
-                laid_friction(bodies, links, rows, j, SECOND)
+        else:
+            for j in range(begin, end):
+                laid_normals(bodies, links, rows, j, relaxation)
+            for j in range(begin, end):
+                laid_friction(bodies, links, rows, j, FIRST)
+            for j in range(begin, end):
+                if links[j, L_POINTS] == 2:
+                    laid_friction(bodies, links, rows, j, SECOND)
         begin = end
 
 
@@ -424,7 +464,7 @@ def solve_laid(x: np.ndarray, y: np.ndarray, vx: np.ndarray, vy: np.ndarray, w: 
     if carry:
         laid_warm_start(bodies, links, rows, m)
     for _ in range(iterations):
-        laid_pass(bodies, links, rows, groups, tally, relaxation)
+        laid_pass(bodies, links, rows, groups, tally, relaxation, False)
     give_velocities(bodies, vx, vy, w)
     return laid_remember(ids, links, rows, m, count, keys, carried)
 
