@@ -39,6 +39,9 @@ Functions, in the order a step uses them:
   normal step optionally over-relaxed;
 - ``solve_velocities(...)``: the velocity half of a step with accumulated impulses on the step's points, the
   stages above in order: gravity, anchors and masses, targets, warm start (or none), iterations, remember;
+  ``passes.solve_laid`` gives the same numbers from the step's manifolds laid out once in visiting order
+  (what ``planar-warm-start`` steps with); the table's passes here are the plain statement it is tested
+  against;
 - ``integrate_positions(...)``: positions and angles move with the velocities over ``dt``;
 - ``separation_push(...)``: one nonlinear Gauss-Seidel pass on positions (Box2D 2.x's position solve): each
   point's separation measured again from where its bodies are now (``anchor_locals``), and the point pushed

@@ -29,11 +29,12 @@ from stackx.models.planar.state import PlanarState
 from stackx.registry import solvers
 from stackx.solvers.base import Correction, LabCorrection
 from stackx.solvers.planar.base import PlanarMemorySolver, StepImpulses, sequential_only
+from stackx.solvers.planar.passes import (give_velocities, laid_pass, laid_remember, laid_workspace, lay_out,
+                                               load_velocities, visiting_order)
 from stackx.solvers.planar.contacts import (A, B, DEPTH, KN, KT, MU, NX, NY, PN, PT, contact_workspace,
                                             correct_positions, find_contacts_near, gravity, integrate_positions,
-                                            manifold_impulse, manifold_velocity,
-                                            near_workspace, observe_contacts, prepare, remember)
-from stackx.solvers.planar.wavefront import manifold_end, manifold_order
+                                            manifold_impulse, manifold_velocity, near_workspace, observe_contacts)
+from stackx.solvers.planar.wavefront import manifold_end, manifold_starts
 
 
 class PlanarPGSParams(BaseModel):
@@ -108,14 +109,22 @@ def planar_pgs_advance(x: np.ndarray, y: np.ndarray, angle: np.ndarray, vx: np.n
         near, wide = near_workspace(x.shape[1])  # the candidate pairs, kept while the boxes stay near
         shift = np.zeros((x.shape[1], 2))
         ids, table, count, near = find_contacts_near(xb, yb, ab, hxb, hyb, im, 0.0, near, wide, ids, table)
+        first, order, group, tally, latest, links, rows, bodies = laid_workspace(ids.shape[0], x.shape[1])
         for _ in range(steps):
+            if rows.shape[0] < ids.shape[0]:  # the table grew
+                first, order, group, tally, latest, links, rows, bodies = laid_workspace(ids.shape[0], x.shape[1])
             gravity(vyb, im, g[b], dt[b])
-            prepare(xb, yb, im, ii, mub, ids, table, count)
-            order = manifold_order(ids, count, x.shape[1])
+            table[:count, PN] = 0.0  # what the step's visits give, from zero
+            table[:count, PT] = 0.0
+            m = manifold_starts(ids, count, first)
+            groups = visiting_order(ids, table, first, m, latest, group, tally, order)
+            lay_out(xb, yb, im, ii, mub, ids, table, first, order, m, dt[b], False, links, rows)
+            load_velocities(vxb, vyb, wb, im, ii, bodies)
             for _ in range(iterations[b]):
-                lab_pass(vxb, vyb, wb, im, ii, ids, table, count, order)
+                laid_pass(bodies, links, rows, groups, tally, 1.0, True)
+            give_velocities(bodies, vxb, vyb, wb)
             if record:
-                held[b] = remember(ids, table, count, keys[b], carried[b])
+                held[b] = laid_remember(ids, links, rows, m, count, keys[b], carried[b])
             integrate_positions(xb, yb, ab, vxb, vyb, wb, dt[b])
             moved = True
             if corrects[b]:

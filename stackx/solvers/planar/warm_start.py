@@ -6,7 +6,8 @@ and tangent impulses (the totals are clamped, ``pn >= 0`` and ``|pt| <= mu pn``,
 increment), and the next step starts from them, matched by the two bodies and the touching feature, so a
 resting pile is held by last step's impulses and the passes only fix what changed.
 
-One step of one world (``contacts.solve_velocities``, then positions):
+One step of one world (the velocity half is ``passes.solve_laid``: ``contacts.solve_velocities``'s
+numbers, on the step's manifolds laid out in the order the passes visit them; then positions):
 1. gravity;
 2. the points within ``speculative`` of touching (Box2D v3's 4 x its linear slop, 0.02 m, by default): a
    point still apart may close its gap within the step and no more, so a box is stopped where it lands
@@ -43,9 +44,9 @@ from stackx.registry import solvers
 from stackx.solvers.base import Correction, LabCorrection
 from stackx.solvers.contacts import speculative_field
 from stackx.solvers.planar.base import PlanarMemorySolver, sequential_only
+from stackx.solvers.planar.passes import laid_workspace, solve_laid
 from stackx.solvers.planar.contacts import (contact_workspace, correct_positions, find_contacts_near,
-                                            integrate_positions, near_workspace, observe_contacts,
-                                            solve_velocities)
+                                            integrate_positions, near_workspace, observe_contacts)
 
 
 class PlanarWarmStartParams(BaseModel):
@@ -96,9 +97,13 @@ def planar_warm_start_advance(x: np.ndarray, y: np.ndarray, angle: np.ndarray, v
         shift = np.zeros((x.shape[1], 2))
         ids, table, count, near = find_contacts_near(xb, yb, ab, hxb, hyb, im, speculative[b], near, wide, ids,
                                                      table)
+        first, order, group, tally, latest, links, rows, bodies = laid_workspace(ids.shape[0], x.shape[1])
         for _ in range(steps):
-            held[b] = solve_velocities(xb, yb, vxb, vyb, wb, im, ii, mub, g[b], dt[b], carry[b], iterations[b],
-                                       block[b], relaxation[b], ids, table, count, keys[b], carried[b], held[b])
+            if rows.shape[0] < ids.shape[0]:  # the table grew
+                first, order, group, tally, latest, links, rows, bodies = laid_workspace(ids.shape[0], x.shape[1])
+            held[b] = solve_laid(xb, yb, vxb, vyb, wb, im, ii, mub, g[b], dt[b], carry[b], iterations[b], block[b],
+                                 relaxation[b], ids, table, count, keys[b], carried[b], held[b], first, order, group,
+                                 tally, latest, links, rows, bodies)
             integrate_positions(xb, yb, ab, vxb, vyb, wb, dt[b])
             moved = True
             if corrects[b]:  # the speculative table's touching points are the correction's (correct_positions)
