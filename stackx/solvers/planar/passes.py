@@ -48,7 +48,7 @@ import numpy as np
 from stackx.kernel import inlined, kernel, leaf
 from stackx.solvers.planar.columns import A, B, DEPTH, FEATURE, NX, NY, PN, PT, PX, PY
 from stackx.solvers.planar.contacts import BLOCK_CONDITION, effective_mass, gravity, recall, two_point_lcp
-from stackx.solvers.planar.wavefront import manifold_starts
+from stackx.solvers.planar.wavefront import manifold_starts, sort_by_group
 
 # a manifold's row: its normal, friction (one for both points: the same two bodies), normal mass matrix and
 # its determinant, whether the block is solved (1.0) or its points visited one by one (0.0), whether its
@@ -378,11 +378,7 @@ def visiting_order(ids: np.ndarray, table: np.ndarray, first: np.ndarray, m: int
         tally[g + 1] += 1
         if g + 1 > groups:
             groups = g + 1
-    for g in range(1, groups + 1):  # tally[g]: where group g begins
-        tally[g] += tally[g - 1]
-    for j in range(m):  # tally[g] moves from where group g begins to where it ends
-        order[tally[group[j]]] = j
-        tally[group[j]] += 1
+    sort_by_group(group, m, groups, tally, order)
     return groups
 
 

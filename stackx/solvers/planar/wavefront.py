@@ -45,6 +45,18 @@ def manifold_starts(ids: np.ndarray, count: int, first: np.ndarray) -> int:
 
 
 @leaf
+def sort_by_group(group: np.ndarray, m: int, groups: int, tally: np.ndarray, order: np.ndarray) -> None:
+    """``order[0..m]``: the manifolds ``0..m-1`` by ``group``, table order within a group (a counting sort).
+    On entry ``tally[g + 1]`` holds group ``g``'s count (``tally[0]`` 0); on exit ``tally[g]`` is where group ``g``
+    ends in ``order``."""
+    for g in range(1, groups + 1):  # tally[g]: where group g begins
+        tally[g] += tally[g - 1]
+    for j in range(m):  # tally[g] moves from where group g begins to where it ends
+        order[tally[group[j]]] = j
+        tally[group[j]] += 1
+
+
+@leaf
 def wavefronts(ids: np.ndarray, first: np.ndarray, m: int, latest: np.ndarray, wave: np.ndarray,
                tally: np.ndarray, order: np.ndarray) -> int:
     """``order[0..m]``: the manifolds (numbered as in ``first``) wave by wave, table order within a wave;
@@ -70,11 +82,7 @@ def wavefronts(ids: np.ndarray, first: np.ndarray, m: int, latest: np.ndarray, w
         tally[now] += 1
         if now > waves:
             waves = now
-    for v in range(1, waves + 1):  # tally[v]: where wave v begins
-        tally[v] += tally[v - 1]
-    for j in range(m):  # tally[v] moves from where wave v begins to where it ends
-        order[tally[wave[j]]] = j
-        tally[wave[j]] += 1
+    sort_by_group(wave, m, waves, tally, order)
     return waves
 
 
