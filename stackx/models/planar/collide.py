@@ -59,6 +59,19 @@ def shapes(x: np.ndarray, y: np.ndarray, cos: np.ndarray, sin: np.ndarray, hx: n
 
 
 @inlined
+def deepest(ux: float, uy: float, n0x: float, n0y: float, n1x: float, n1y: float, hx: float, hy: float,
+            lows: tuple[float, float, float, float]) -> tuple[float, float, float, float]:
+    """``lows``, the separations of a box's faces 0 to 3 (normals ``n0``, ``n1``, ``-n0``, ``-n1``, extents
+    ``hx``, ``hy``, ``hx``, ``hy``) from the deepest corner so far, after one more corner at ``u`` from the
+    box's centre."""
+    p0, p1 = ux * n0x + uy * n0y, ux * n1x + uy * n1y
+    d0, d1, d2, d3 = p0 - hx, p1 - hy, -p0 - hx, -p1 - hy
+    low0, low1, low2, low3 = lows
+    return (d0 if d0 < low0 else low0), (d1 if d1 < low1 else low1), (d2 if d2 < low2 else low2), (
+        d3 if d3 < low3 else low3)
+
+
+@inlined
 def separation(a: int, b: int, x: np.ndarray, y: np.ndarray, corners: np.ndarray, faces: np.ndarray) -> tuple[float, int]:
     """The largest separation of box b from a face of box a (negative: the overlap along that face's normal)
     and that face (the first of equals): per face of a, the deepest corner of b below its plane.
@@ -68,20 +81,16 @@ def separation(a: int, b: int, x: np.ndarray, y: np.ndarray, corners: np.ndarray
     2's ``-p - hx``, the very numbers projecting on face 2's own normal gives (a negated product and sum round
     as the original, negated). Half the multiplications of projecting on every face, the same bits; the
     minimum is taken as ``d if d < low else low``, as ``if d < low: low = d`` does (a corner that is not a
-    number never counts), which compiles without branches."""
+    number never counts), which compiles without branches; the four corners written out, not looped over."""
     xa, ya = x[a], y[a]
     n0x, n0y, hx = faces[a, 0, 0], faces[a, 0, 1], faces[a, 0, 2]
     n1x, n1y, hy = faces[a, 1, 0], faces[a, 1, 1], faces[a, 1, 2]
-    low0, low1, low2, low3 = np.inf, np.inf, np.inf, np.inf
-    for corner in range(4):
-        ux, uy = corners[b, corner, 0] - xa, corners[b, corner, 1] - ya
-        p0 = ux * n0x + uy * n0y
-        p1 = ux * n1x + uy * n1y
-        d0, d1, d2, d3 = p0 - hx, p1 - hy, -p0 - hx, -p1 - hy
-        low0 = d0 if d0 < low0 else low0
-        low1 = d1 if d1 < low1 else low1
-        low2 = d2 if d2 < low2 else low2
-        low3 = d3 if d3 < low3 else low3
+    lows = (np.inf, np.inf, np.inf, np.inf)
+    lows = deepest(corners[b, 0, 0] - xa, corners[b, 0, 1] - ya, n0x, n0y, n1x, n1y, hx, hy, lows)
+    lows = deepest(corners[b, 1, 0] - xa, corners[b, 1, 1] - ya, n0x, n0y, n1x, n1y, hx, hy, lows)
+    lows = deepest(corners[b, 2, 0] - xa, corners[b, 2, 1] - ya, n0x, n0y, n1x, n1y, hx, hy, lows)
+    low0, low1, low2, low3 = deepest(corners[b, 3, 0] - xa, corners[b, 3, 1] - ya, n0x, n0y, n1x, n1y, hx, hy,
+                                     lows)
     best, face = low0, 0
     if low1 > best:
         best, face = low1, 1
