@@ -72,7 +72,8 @@ def deepest(ux: float, uy: float, n0x: float, n0y: float, n1x: float, n1y: float
 
 
 @inlined
-def separation(a: int, b: int, x: np.ndarray, y: np.ndarray, corners: np.ndarray, faces: np.ndarray) -> tuple[float, int]:
+def separation(a: int, b: int, x: np.ndarray, y: np.ndarray, corners: np.ndarray,
+               faces: np.ndarray) -> tuple[float, int]:
     """The largest separation of box b from a face of box a (negative: the overlap along that face's normal)
     and that face (the first of equals): per face of a, the deepest corner of b below its plane.
 
@@ -175,7 +176,7 @@ def box_points(i: int, j: int, x: np.ndarray, y: np.ndarray, corners: np.ndarray
     if sep_i > margin:  # a face of i keeps j farther than the margin: no contact (nor any test of j's faces)
         return n
     threshold = REFERENCE_BIAS * sep_i + ABSOLUTE_BIAS  # what a face of j must beat to be the reference
-    flip = False
+    flip, face_j = False, 0
     if not beaten(i, j, x, y, faces, min(threshold, margin)):
         sep_j, face_j = separation(j, i, x, y, corners, faces)
         if sep_j > margin:
