@@ -11,7 +11,8 @@ import numpy as np
 import pytest
 
 from stackx import kernel
-from stackx.models.planar.collide import ABSOLUTE_BIAS, REFERENCE_BIAS, collide, ground_points, shapes
+from stackx.models.planar.collide import ABSOLUTE_BIAS, REFERENCE_BIAS, collide
+from tests.planar.test_broad import every_pair
 
 
 def face_separation(a: int, b: int, x: np.ndarray, y: np.ndarray, corners: np.ndarray, faces: np.ndarray,
@@ -75,38 +76,14 @@ def manifold(i: int, j: int, x: np.ndarray, y: np.ndarray, corners: np.ndarray, 
     return points
 
 
-def written_out(x: np.ndarray, y: np.ndarray, angle: np.ndarray, hx: np.ndarray, hy: np.ndarray,
-                static: np.ndarray, margin: float, room: int) -> tuple[np.ndarray, ...]:
-    """The plain method's points as ``collide`` stores them: ground first, then every pair ``i < j``."""
-    bodies = len(x)
-    cos, sin = np.cos(angle), np.sin(angle)
-    corners, faces = np.empty((bodies, 4, 2)), np.empty((bodies, 4, 4))
-    ground = (np.zeros(room, np.int64), np.zeros(room, np.int64), np.zeros((room, 2)), np.zeros((room, 2)),
-              np.zeros(room), np.zeros(room, np.int64))
-    n = 0
-    with kernel.compiled(False):
-        shapes(x, y, cos, sin, hx, hy, corners, faces)
-        for i in range(bodies):
-            reach_y = abs(sin[i]) * hx[i] + abs(cos[i]) * hy[i]
-            if not static[i] and y[i] - reach_y <= margin:
-                n = ground_points(i, x[i], y[i], cos[i], sin[i], hx[i], hy[i], margin, n, *ground)
-    points = [(ground[0][k], ground[1][k], *ground[2][k], *ground[3][k], ground[4][k], ground[5][k])
-              for k in range(n)]
-    reach_x = np.abs(cos) * hx + np.abs(sin) * hy
-    reach_y = np.abs(sin) * hx + np.abs(cos) * hy
-    for i in range(bodies):
-        for j in range(i + 1, bodies):
-            if static[i] and static[j]:
-                continue
-            if (abs(x[i] - x[j]) > reach_x[i] + reach_x[j] + margin
-                    or abs(y[i] - y[j]) > reach_y[i] + reach_y[j] + margin):
-                continue
-            points += manifold(i, j, x, y, corners, faces, margin)
-    columns = list(zip(*points)) if points else [()] * 8
-    return (np.array(columns[0], np.int64), np.array(columns[1], np.int64),
-            np.array(list(zip(columns[2], columns[3])), np.float64).reshape(-1, 2),
-            np.array(list(zip(columns[4], columns[5])), np.float64).reshape(-1, 2),
-            np.array(columns[6], np.float64), np.array(columns[7], np.int64))
+def written_out_pair(i: int, j: int, x: np.ndarray, y: np.ndarray, corners: np.ndarray, faces: np.ndarray,
+                     margin: float, n: int, *out: np.ndarray) -> int:
+    """``manifold``'s points stored as ``box_points`` stores them, after the ``n`` already there."""
+    for point in manifold(i, j, x, y, corners, faces, margin):
+        a, b, nx, ny, px, py, depth, feature = point
+        out[0][n], out[1][n], out[2][n], out[3][n], out[4][n], out[5][n] = a, b, (nx, ny), (px, py), depth, feature
+        n += 1
+    return n
 
 
 def jumble(seed: int, boxes: int) -> tuple[np.ndarray, ...]:
@@ -150,11 +127,11 @@ def test_collide_gives_the_bytes_of_the_method_written_out(name: str, margin: fl
     got = (np.zeros(room, np.int64), np.zeros(room, np.int64), np.zeros((room, 2)), np.zeros((room, 2)),
            np.zeros(room), np.zeros(room, np.int64))
     with np.errstate(all="ignore"):  # the boxes that are not numbers
-        want = written_out(x, y, angle, hx, hy, static, margin, room)
+        count, want = every_pair(x, y, angle, hx, hy, static, margin, room, written_out_pair)
         with kernel.compiled(compiled):
             n = collide(x, y, angle, hx, hy, static, margin, *got)
-    assert n == len(want[0]) > 20
+    assert n == count > 20
     if name.startswith("jumble"):  # pairs where either box is the reference
-        assert {int(f) >> 6 for f in want[5]} == {0, 1}
+        assert {int(f) >> 6 for f in want[5][:n]} == {0, 1}
     for g, w in zip(got, want):
-        assert g[:n].tobytes() == w.tobytes()
+        assert g[:n].tobytes() == w[:n].tobytes()
