@@ -4,6 +4,7 @@ the order, of testing every pair of boxes (the narrow phase run on all ``n^2 / 2
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 
 import numpy as np
 import pytest
@@ -14,8 +15,10 @@ from stackx.models.planar.collide import box_points, collide, ground_points, sha
 
 
 def every_pair(x: np.ndarray, y: np.ndarray, angle: np.ndarray, hx: np.ndarray, hy: np.ndarray,
-               static: np.ndarray, margin: float, room: int) -> tuple[int, tuple[np.ndarray, ...]]:
-    """The contact points of testing every pair, in index order: ground first, then ``(i, j)``, ``i < j``."""
+               static: np.ndarray, margin: float, room: int,
+               pair: Callable[..., int] = box_points) -> tuple[int, tuple[np.ndarray, ...]]:
+    """The contact points of testing every pair, in index order: ground first, then ``(i, j)``, ``i < j``, each
+    pair's points stored by ``pair`` (``box_points``'s arguments and answer)."""
     out = (np.zeros(room, np.int64), np.zeros(room, np.int64), np.zeros((room, 2)), np.zeros((room, 2)),
            np.zeros(room), np.zeros(room, np.int64))
     n = 0
@@ -36,7 +39,7 @@ def every_pair(x: np.ndarray, y: np.ndarray, angle: np.ndarray, hx: np.ndarray, 
                 if (abs(x[i] - x[j]) > reach_x[i] + reach_x[j] + margin
                         or abs(y[i] - y[j]) > reach_y[i] + reach_y[j] + margin):
                     continue
-                n = box_points(i, j, x, y, corners, faces, margin, n, *out)
+                n = pair(i, j, x, y, corners, faces, margin, n, *out)
     return n, out
 
 

@@ -21,8 +21,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from stackx.kernel import kernel, leaf
-from stackx.models.planar.broad import bounds, candidate_pairs, inside, widen
+from stackx.kernel import inlined, kernel, leaf
+from stackx.models.planar.broad import ROUNDING, bounds, candidate_pairs, inside, widen
 
 GROUND = -1
 REFERENCE_BIAS = 0.98  # box b becomes the reference only when clearly better: keeps the choice from flipping
@@ -58,26 +58,48 @@ def shapes(x: np.ndarray, y: np.ndarray, cos: np.ndarray, sin: np.ndarray, hx: n
             faces[i, face, 0], faces[i, face, 1], faces[i, face, 2], faces[i, face, 3] = nx, ny, extent, width
 
 
-@leaf
-def separation(a: int, b: int, x: np.ndarray, y: np.ndarray, corners: np.ndarray, faces: np.ndarray,
-               margin: float) -> tuple[float, int]:
+@inlined
+def deepest(ux: float, uy: float, n0x: float, n0y: float, n1x: float, n1y: float, hx: float, hy: float,
+            lows: tuple[float, float, float, float]) -> tuple[float, float, float, float]:
+    """``lows``, the separations of a box's faces 0 to 3 (normals ``n0``, ``n1``, ``-n0``, ``-n1``, extents
+    ``hx``, ``hy``, ``hx``, ``hy``) from the deepest corner so far, after one more corner at ``u`` from the
+    box's centre."""
+    p0, p1 = ux * n0x + uy * n0y, ux * n1x + uy * n1y
+    d0, d1, d2, d3 = p0 - hx, p1 - hy, -p0 - hx, -p1 - hy
+    low0, low1, low2, low3 = lows
+    return (d0 if d0 < low0 else low0), (d1 if d1 < low1 else low1), (d2 if d2 < low2 else low2), (
+        d3 if d3 < low3 else low3)
+
+
+@inlined
+def separation(a: int, b: int, x: np.ndarray, y: np.ndarray, corners: np.ndarray,
+               faces: np.ndarray) -> tuple[float, int]:
     """The largest separation of box b from a face of box a (negative: the overlap along that face's normal)
-    and that face: the deepest corner of b below each face plane of a, best face kept. The first face that
-    separates them by more than ``margin`` is returned at once: the pair has no contact, whichever face
-    separates most."""
-    best, best_face = -np.inf, 0
-    for face in range(4):
-        nx, ny, extent = faces[a, face, 0], faces[a, face, 1], faces[a, face, 2]
-        low = np.inf
-        for corner in range(4):
-            d = (corners[b, corner, 0] - x[a]) * nx + (corners[b, corner, 1] - y[a]) * ny - extent
-            if d < low:
-                low = d
-        if low > margin:
-            return low, face
-        if low > best:
-            best, best_face = low, face
-    return best, best_face
+    and that face (the first of equals): per face of a, the deepest corner of b below its plane.
+
+    A box's opposite faces have opposite normals and equal extents, so the four faces need two projections
+    of each corner of b, not four: ``p`` along face 0's normal gives face 0's separation ``p - hx`` and face
+    2's ``-p - hx``, the very numbers projecting on face 2's own normal gives (a negated product and sum round
+    as the original, negated). Half the multiplications of projecting on every face, the same bits; the
+    minimum is taken as ``d if d < low else low``, as ``if d < low: low = d`` does (a corner that is not a
+    number never counts), which compiles without branches; the four corners written out, not looped over."""
+    xa, ya = x[a], y[a]
+    n0x, n0y, hx = faces[a, 0, 0], faces[a, 0, 1], faces[a, 0, 2]
+    n1x, n1y, hy = faces[a, 1, 0], faces[a, 1, 1], faces[a, 1, 2]
+    lows = (np.inf, np.inf, np.inf, np.inf)
+    lows = deepest(corners[b, 0, 0] - xa, corners[b, 0, 1] - ya, n0x, n0y, n1x, n1y, hx, hy, lows)
+    lows = deepest(corners[b, 1, 0] - xa, corners[b, 1, 1] - ya, n0x, n0y, n1x, n1y, hx, hy, lows)
+    lows = deepest(corners[b, 2, 0] - xa, corners[b, 2, 1] - ya, n0x, n0y, n1x, n1y, hx, hy, lows)
+    low0, low1, low2, low3 = deepest(corners[b, 3, 0] - xa, corners[b, 3, 1] - ya, n0x, n0y, n1x, n1y, hx, hy,
+                                     lows)
+    best, face = low0, 0
+    if low1 > best:
+        best, face = low1, 1
+    if low2 > best:
+        best, face = low2, 2
+    if low3 > best:
+        best, face = low3, 3
+    return best, face
 
 
 @leaf
@@ -122,26 +144,53 @@ def ground_points(i: int, x: float, y: float, c: float, s: float, hx: float, hy:
     return n
 
 
-@leaf
+@inlined
+def beaten(a: int, b: int, x: np.ndarray, y: np.ndarray, faces: np.ndarray, below: float) -> bool:
+    """Whether every face of box b surely separates box a by less than ``below``, from the centres alone:
+    then ``separation(b, a)`` need not be found (its face cannot be the reference, nor its separation pass
+    the margin).
+
+    The deepest corner of a below a face of b lies at least a's smaller half-extent past a's centre
+    (``hx |cos| + hy |sin| >= min(hx, hy)`` for a unit normal), so that face's separation is at most the
+    centre's height over the face, less that half-extent. The bound must clear ``below`` by more than the
+    rounding of both it and the corners (``ROUNDING`` of the boxes' scale); a bound that is not a number
+    clears nothing. In a pile, where a pair's own face is the clear reference, this halves the faces tested."""
+    dx, dy = x[a] - x[b], y[a] - y[b]
+    over0 = abs(dx * faces[b, 0, 0] + dy * faces[b, 0, 1]) - faces[b, 0, 2]
+    over1 = abs(dx * faces[b, 1, 0] + dy * faces[b, 1, 1]) - faces[b, 1, 2]
+    half = min(abs(faces[a, 0, 2]), abs(faces[a, 1, 2]))
+    scale = 1.0 + abs(x[a]) + abs(y[a]) + abs(x[b]) + abs(y[b]) + abs(faces[a, 0, 2]) + abs(faces[a, 1, 2]) + abs(
+        faces[b, 0, 2]) + abs(faces[b, 1, 2])
+    if not np.isfinite(over0 + over1 + half + scale):  # a max or min could drop a number that is none
+        return False
+    return max(over0, over1) - half + ROUNDING * scale < below
+
+
+@inlined
 def box_points(i: int, j: int, x: np.ndarray, y: np.ndarray, corners: np.ndarray, faces: np.ndarray,
                margin: float, n: int, body_a: np.ndarray, body_b: np.ndarray, normal: np.ndarray,
                point: np.ndarray, depths: np.ndarray, features: np.ndarray) -> int:
     """The manifold of boxes ``i`` and ``j`` (normal from i to j): reference face, incident face, clipping;
     the boxes' corners and faces from ``shapes``."""
-    sep_i, face_i = separation(i, j, x, y, corners, faces, margin)
-    if sep_i > margin:
+    sep_i, face_i = separation(i, j, x, y, corners, faces)
+    if sep_i > margin:  # a face of i keeps j farther than the margin: no contact (nor any test of j's faces)
         return n
-    sep_j, face_j = separation(j, i, x, y, corners, faces, margin)
-    if sep_j > margin:
-        return n
-    flip = sep_j > REFERENCE_BIAS * sep_i + ABSOLUTE_BIAS
+    threshold = REFERENCE_BIAS * sep_i + ABSOLUTE_BIAS  # what a face of j must beat to be the reference
+    flip, face_j = False, 0
+    if not beaten(i, j, x, y, faces, min(threshold, margin)):
+        sep_j, face_j = separation(j, i, x, y, corners, faces)
+        if sep_j > margin:
+            return n
+        flip = sep_j > threshold
     r, k = (j, i) if flip else (i, j)  # reference and incident box
     face = face_j if flip else face_i
     nx, ny, extent, width = faces[r, face, 0], faces[r, face, 1], faces[r, face, 2], faces[r, face, 3]
     tx, ty = -ny, nx
+    # the face of k most opposed to the normal; faces 2 and 3 give the negatives of faces 0 and 1
+    d0 = faces[k, 0, 0] * nx + faces[k, 0, 1] * ny
+    d1 = faces[k, 1, 0] * nx + faces[k, 1, 1] * ny
     incident, lowest = 0, np.inf
-    for f in range(4):
-        d = faces[k, f, 0] * nx + faces[k, f, 1] * ny
+    for f, d in ((0, d0), (1, d1), (2, -d0), (3, -d1)):
         if d < lowest:
             incident, lowest = f, d
     fx, fy, e, w = faces[k, incident, 0], faces[k, incident, 1], faces[k, incident, 2], faces[k, incident, 3]
@@ -170,6 +219,27 @@ def box_points(i: int, j: int, x: np.ndarray, y: np.ndarray, corners: np.ndarray
             feature = (1 if flip else 0) * 64 + face * 16 + incident * 4 + end
             n = add_point(n, i, j, sign * nx, sign * ny, ex - 0.5 * sep * nx, ey - 0.5 * sep * ny,
                           -sep, feature, body_a, body_b, normal, point, depths, features)
+    return n
+
+
+@leaf
+def pair_points(near: np.ndarray, x: np.ndarray, y: np.ndarray, reach_x: np.ndarray, reach_y: np.ndarray,
+                corners: np.ndarray, faces: np.ndarray, margin: float, n: int, body_a: np.ndarray,
+                body_b: np.ndarray, normal: np.ndarray, point: np.ndarray, depths: np.ndarray,
+                features: np.ndarray) -> int:
+    """The points of the ``near[0]`` candidate pairs (keys ``i * bodies + j``, increasing, in ``near[1:]``)
+    whose bounding boxes come within ``margin``, in their order, after the ``n`` already stored; returns the
+    new count. One loop with the narrow phase written into it: a call per pair would hand over a dozen
+    arrays each time."""
+    bodies = x.shape[0]
+    i = 0
+    for p in range(1, near[0] + 1):
+        while near[p] >= (i + 1) * bodies:  # the keys come sorted: i found without a division per pair
+            i += 1
+        j = near[p] - i * bodies
+        if abs(x[i] - x[j]) > reach_x[i] + reach_x[j] + margin or abs(y[i] - y[j]) > reach_y[i] + reach_y[j] + margin:
+            continue
+        n = box_points(i, j, x, y, corners, faces, margin, n, body_a, body_b, normal, point, depths, features)
     return n
 
 
@@ -223,9 +293,6 @@ def collide_near(x: np.ndarray, y: np.ndarray, angle: np.ndarray, hx: np.ndarray
             pairs = candidate_pairs(x, y, reach_x, reach_y, static, fat, near[1:])
         near[0] = pairs
         widen(x, y, reach_x, reach_y, fat, wide)
-    for p in range(1, near[0] + 1):
-        i, j = near[p] // bodies, near[p] % bodies
-        if abs(x[i] - x[j]) > reach_x[i] + reach_x[j] + margin or abs(y[i] - y[j]) > reach_y[i] + reach_y[j] + margin:
-            continue
-        n = box_points(i, j, x, y, corners, faces, margin, n, body_a, body_b, normal, point, depths, features)
+    n = pair_points(near, x, y, reach_x, reach_y, corners, faces, margin, n, body_a, body_b, normal, point,
+                    depths, features)
     return n, near
