@@ -177,7 +177,7 @@ def test_a_pass_in_manifold_order_gives_the_numbers_of_a_table_order_sweep(compi
     from stackx.scenes.planar import Planar, PlanarParams, Pyramid
     from stackx.solvers.planar.contacts import accumulated_iteration, set_targets
     from stackx.solvers.planar.wavefront import manifold_end, manifold_order
-    from stackx.solvers.planar.pgs import lab_pass
+    from tests.planar.lab_table import lab_table_pass
     from tests.planar.worlds import run
 
     s = Planar(PlanarParams(pyramid=Pyramid(rows=6, gap=0.0, friction=0.5))).build()
@@ -205,7 +205,7 @@ def test_a_pass_in_manifold_order_gives_the_numbers_of_a_table_order_sweep(compi
                 for _ in range(4):
                     args = (st.vx[0], st.vy[0], st.w[0], st.inv_mass[0], st.inv_inertia[0], ids, t, count, o)
                     if visit == "lab":
-                        lab_pass(*args)
+                        lab_table_pass(*args)
                     else:
                         accumulated_iteration(*args, visit == "block", 1.3)
         assert got_table.tobytes() == want_table.tobytes(), visit

@@ -13,6 +13,7 @@ from stackx.solvers.planar.contacts import (A, B, DEPTH, PN, PT, accumulated_ite
                                             find_contacts, prepare, remember, set_targets, solve_velocities,
                                             warm_start)
 from stackx.solvers.planar.wavefront import manifold_end, manifold_starts, wavefronts
+from tests.planar.lab_table import lab_table_pass
 from tests.planar.worlds import DT, G, run, world
 
 MARGIN = 0.02
@@ -204,10 +205,8 @@ def test_the_visiting_order_keeps_every_bodys_order_and_sets_the_manifolds_apart
 @pytest.mark.parametrize("compiled", [False, True])
 def test_the_lab_pass_on_the_layout_gives_the_numbers_of_lab_pass_in_table_order(compiled: bool) -> None:
     """``laid_pass`` with the lab's visits: the velocities and the visits' summed impulses after four passes are
-    ``pgs.lab_pass``'s over the table from top to bottom, to the bit; points that do not overlap (depth 0 or
+    ``lab_table_pass``'s over the table from top to bottom, to the bit; points that do not overlap (depth 0 or
     -0.0 here, set by hand) are passed over as there."""
-    from stackx.solvers.planar.pgs import lab_pass
-
     s = _pile()
     ids, table = contact_workspace(4)
     ids, table, count = find_contacts(s.x[0], s.y[0], s.angle[0], s.hx[0], s.hy[0], s.inv_mass[0], 0.0, ids,
@@ -220,8 +219,8 @@ def test_the_lab_pass_on_the_layout_gives_the_numbers_of_lab_pass_in_table_order
     first, order, group, tally, latest, links, rows, bodies = laid.laid_workspace(ids.shape[0], s.bodies)
     with kernel.compiled(compiled):
         for _ in range(4):
-            lab_pass(want.vx[0], want.vy[0], want.w[0], want.inv_mass[0], want.inv_inertia[0], ids, want_table,
-                     count, np.array(_starts(ids, count), np.int64))
+            lab_table_pass(want.vx[0], want.vy[0], want.w[0], want.inv_mass[0], want.inv_inertia[0], ids,
+                            want_table, count, np.array(_starts(ids, count), np.int64))
         m = manifold_starts(ids, count, first)
         groups = laid.visiting_order(ids, table, first, m, latest, group, tally, order)
         laid.lay_out(s.x[0], s.y[0], s.inv_mass[0], s.inv_inertia[0], s.friction[0], ids, table, first, order, m,

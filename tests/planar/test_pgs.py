@@ -6,9 +6,10 @@ import numpy as np
 import pytest
 
 from stackx import kernel
-from stackx.solvers.planar.contacts import KN, MU, PN, PT, contact_workspace, find_contacts, prepare
-from stackx.solvers.planar.wavefront import manifold_order
-from stackx.solvers.planar.pgs import PlanarPGSParams, lab_pass
+from stackx.solvers.planar import passes as laid
+from stackx.solvers.planar.contacts import KN, MU, contact_workspace, find_contacts, prepare
+from stackx.solvers.planar.pgs import PlanarPGSParams
+from stackx.solvers.planar.wavefront import manifold_starts
 from tests.planar.worlds import DT, G, deepest, run, world
 
 MIXED = [{"x": 0.0, "y": 0.48, "angle": 0.05}, {"x": 0.3, "y": 1.5, "angle": -0.1, "vx": 0.5},
@@ -47,21 +48,40 @@ def test_only_overlapping_points_push_so_a_box_lands_with_the_overlap_of_its_las
     assert s.vy[0, 0] == pytest.approx(v, abs=1e-12)
 
 
+def _lab_passes(s, ids: np.ndarray, table: np.ndarray, count: int, passes: int) -> list[np.ndarray]:
+    """``passes`` of ``planar-pgs``'s own velocity pass (the lab's visits on the laid-out step) on row 0 of ``s``,
+    in place: after each pass, the visits' summed normal and tangent impulses per point, ``(count, 2)`` in table
+    order."""
+    first, order, group, tally, latest, links, rows, bodies = laid.laid_workspace(ids.shape[0], s.bodies)
+    m = manifold_starts(ids, count, first)
+    groups = laid.visiting_order(ids, table, first, m, latest, group, tally, order)
+    laid.lay_out(s.x[0], s.y[0], s.inv_mass[0], s.inv_inertia[0], s.friction[0], ids, table, first, order, m, DT,
+                 False, links, rows)
+    laid.load_velocities(s.vx[0], s.vy[0], s.w[0], s.inv_mass[0], s.inv_inertia[0], bodies)
+    sums = []
+    for _ in range(passes):
+        laid.laid_pass(bodies, links, rows, groups, tally, 1.0, True)
+        keys, carried = np.zeros((count, 3), np.int64), np.zeros((count, 2))
+        laid.laid_remember(ids, links, rows, m, count, keys, carried)
+        sums.append(carried)
+    laid.give_velocities(bodies, s.vx[0], s.vy[0], s.w[0])
+    return sums
+
+
 def test_friction_per_visit_never_exceeds_mu_times_that_visits_normal_impulse() -> None:
     s = world([{"x": 0.0, "y": 0.49, "vx": 3.0, "vy": -1.0, "mu": 0.4}])
     ids, table = contact_workspace(8)
     ids, table, count = find_contacts(s.x[0], s.y[0], s.angle[0], s.hx[0], s.hy[0], s.inv_mass[0], 0.0, ids, table)
     prepare(s.x[0], s.y[0], s.inv_mass[0], s.inv_inertia[0], s.friction[0], ids, table, count)
     assert count == 2
-    order = manifold_order(ids, count, 1)
     first = -(-1.0) * table[0, KN]  # the first visit stops the first corner's approach of 1 m/s
-    lab_pass(s.vx[0], s.vy[0], s.w[0], s.inv_mass[0], s.inv_inertia[0], ids, table, count, order)
-    assert table[0, PN] == pytest.approx(first, rel=1e-12)
+    sums = _lab_passes(s, ids, table, count, 21)
+    assert sums[0][0, 0] == pytest.approx(first, rel=1e-12)
     for k in range(count):  # sliding fast: each visit's friction is at its bound, against the motion (the
-        assert table[k, PT] == pytest.approx(table[k, MU] * table[k, PN], rel=1e-12)  # tangent is -x here)
-    for _ in range(20):  # later visits: each bounded by its own normal impulse, so the sums are too
-        lab_pass(s.vx[0], s.vy[0], s.w[0], s.inv_mass[0], s.inv_inertia[0], ids, table, count, order)
-        assert all(abs(table[k, PT]) <= table[k, MU] * table[k, PN] * (1 + 1e-12) for k in range(count))
+        assert sums[0][k, 1] == pytest.approx(table[k, MU] * sums[0][k, 0], rel=1e-12)  # tangent is -x here)
+    for before, after in zip(sums, sums[1:]):  # later visits: each bounded by its own normal impulse
+        gave = after - before
+        assert all(abs(gave[k, 1]) <= table[k, MU] * gave[k, 0] * (1 + 1e-12) + 1e-15 for k in range(count))
     assert s.vx[0, 0] > 0.0  # friction slowed the box, never reversed it
 
 

@@ -26,7 +26,7 @@ side joints within the speculative margin: a third of its manifolds), each visit
 waves. Every body meets its manifolds in table order, so a pass gives the velocities and impulses of
 ``accumulated_iteration`` over the table in table order, to the bit. The lab's pass (``laid_pass`` with
 ``lab``) reads the same rows: each point's normal then its friction, a wave's first points then its second
-ones, the numbers of ``pgs.lab_pass``.
+ones, the numbers of the lab's visits (``pgs``) over the table from top to bottom.
 
 Work is left out only where it cannot change a bit: a manifold apart whose visit would change nothing is
 found so without writing anything (``stays_apart``: two points separating and no impulse held, so its block
@@ -311,8 +311,9 @@ def laid_friction(bodies: np.ndarray, links: np.ndarray, rows: np.ndarray, j: in
 
 @inlined
 def lab_visit(bodies: np.ndarray, links: np.ndarray, rows: np.ndarray, j: int, c: int) -> None:
-    """``pgs.lab_pass``'s visit of the point of row ``j`` whose columns begin at ``c``, the same arithmetic: stop the approach, then friction within ``mu``
-    times this visit's normal impulse; the point's ``PN``/``PT`` add up what the visits gave."""
+    """The lab's visit (``pgs``) of the point of row ``j`` whose columns begin at ``c``: stop the approach, then
+    friction within ``mu`` times this visit's normal impulse; the point's ``PN``/``PT`` add up what the visits
+    gave."""
     if rows[j, c + Q_DEPTH] <= 0.0:
         return
     a, sink, b = links[j, L_A], links[j, L_SINK], links[j, L_B]
@@ -389,7 +390,7 @@ def laid_pass(bodies: np.ndarray, links: np.ndarray, rows: np.ndarray, groups: i
     ``g`` ends). Accumulated (``contacts.accumulated_iteration``'s numbers, see the module doc): an even
     group's manifolds one after the other, each its normals then its frictions; an odd group's (a wave's)
     every manifold's normals, then every first friction, then every second. With ``lab``, the lab's visits
-    (``pgs.lab_pass``'s numbers; ``relaxation`` unused): each point's normal then friction, in a wave every
+    (a table-order lab pass's numbers; ``relaxation`` unused): each point's normal then friction, in a wave every
     first point, then every second."""
     begin = np.uint64(0)
     for g in range(groups):

@@ -23,7 +23,7 @@ from __future__ import annotations
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, field_validator
 
-from stackx.kernel import kernel, leaf, prange
+from stackx.kernel import kernel, prange
 from stackx.models.planar.monitor import contact_room
 from stackx.models.planar.state import PlanarState
 from stackx.registry import solvers
@@ -31,10 +31,9 @@ from stackx.solvers.base import Correction, LabCorrection
 from stackx.solvers.planar.base import PlanarMemorySolver, StepImpulses, sequential_only
 from stackx.solvers.planar.passes import (give_velocities, laid_pass, laid_remember, laid_workspace, lay_out,
                                                load_velocities, visiting_order)
-from stackx.solvers.planar.contacts import (A, B, DEPTH, KN, KT, MU, NX, NY, PN, PT, contact_workspace,
-                                            correct_positions, find_contacts_near, gravity, integrate_positions,
-                                            manifold_impulse, manifold_velocity, near_workspace, observe_contacts)
-from stackx.solvers.planar.wavefront import manifold_end, manifold_starts
+from stackx.solvers.planar.contacts import (PN, PT, contact_workspace, correct_positions, find_contacts_near, gravity,
+                                            integrate_positions, near_workspace, observe_contacts)
+from stackx.solvers.planar.wavefront import manifold_starts
 
 
 class PlanarPGSParams(BaseModel):
@@ -49,48 +48,6 @@ class PlanarPGSParams(BaseModel):
                     "'global' and max_push are the column's")
 
     _sequential = field_validator("correction")(sequential_only)
-
-
-@leaf
-def lab_pass(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, inv_mass: np.ndarray, inv_inertia: np.ndarray,
-             ids: np.ndarray, table: np.ndarray, count: int, order: np.ndarray) -> None:
-    """One pass of per-visit clamped impulses over the overlapping points: stop the approach, then friction
-    within ``mu`` times this visit's normal impulse. ``PN``/``PT`` add up what the visits gave (a record).
-
-    The points are visited manifold by manifold in ``order`` (``wavefront.manifold_order``): for every body
-    its points come in table order, so the numbers are those of visiting the table from top to bottom, while
-    manifolds that share no body come side by side and overlap in the processor. A manifold's two bodies'
-    velocities are held in locals over its points (``manifold_velocity``, ``manifold_impulse``: the same
-    arithmetic as ``relative_velocity`` and ``apply_impulse``)."""
-    for m in range(order.shape[0]):
-        k = order[m]
-        a, b = ids[k, A], ids[k, B]
-        grounded = a < 0
-        vax, vay, wa, ima, iia = 0.0, 0.0, 0.0, 0.0, 0.0
-        if not grounded:
-            vax, vay, wa, ima, iia = vx[a], vy[a], w[a], inv_mass[a], inv_inertia[a]
-        vbx, vby, wb, imb, iib = vx[b], vy[b], w[b], inv_mass[b], inv_inertia[b]
-        for i in range(k, manifold_end(ids, k, count)):
-            if table[i, DEPTH] <= 0.0:
-                continue
-            nx, ny = table[i, NX], table[i, NY]
-            un = manifold_velocity(vax, vay, wa, vbx, vby, wb, grounded, table, i, nx, ny)
-            pn = 0.0
-            if un < 0.0:
-                pn = -un * table[i, KN]
-                vax, vay, wa, vbx, vby, wb = manifold_impulse(vax, vay, wa, vbx, vby, wb, grounded, ima, iia, imb,
-                                                              iib, table, i, pn * nx, pn * ny)
-                table[i, PN] += pn
-            limit = table[i, MU] * pn
-            if limit > 0.0:
-                pt = -manifold_velocity(vax, vay, wa, vbx, vby, wb, grounded, table, i, -ny, nx) * table[i, KT]
-                pt = min(max(pt, -limit), limit)
-                vax, vay, wa, vbx, vby, wb = manifold_impulse(vax, vay, wa, vbx, vby, wb, grounded, ima, iia, imb,
-                                                              iib, table, i, -pt * ny, pt * nx)
-                table[i, PT] += pt
-        if not grounded:
-            vx[a], vy[a], w[a] = vax, vay, wa
-        vx[b], vy[b], w[b] = vbx, vby, wb
 
 
 @kernel

@@ -89,7 +89,7 @@ def wavefronts(ids: np.ndarray, first: np.ndarray, m: int, latest: np.ndarray, w
 @kernel
 def manifold_order(ids: np.ndarray, count: int, bodies: int) -> np.ndarray:
     """The first points of the table's ``count`` points' manifolds, wave by wave (``wavefronts``): the order
-    a pass that allocates per step visits them in (``contacts.accumulated_iteration``, ``pgs.lab_pass``).
+    a pass that allocates per step visits them in (``contacts.accumulated_iteration``).
     A wave of a 20-row pyramid's manifolds overlaps in the processor: about a quarter off a pass."""
     first = np.empty(count + 1, np.int64)
     m = manifold_starts(ids, count, first)
