@@ -124,6 +124,7 @@ from functools import partial
 import numpy as np
 
 from stackx.kernel import compiled, enabled, kernel
+from stackx.models.planar import mode_rows
 from stackx.models.planar.problem import (GROUND, ContactProblem, effective_masses, inverse_masses, jacobian_rows,
                                           point_residuals, residual, velocities_after)
 
@@ -568,12 +569,7 @@ class ModeSystem:
 
     def spread(self, values: np.ndarray, columns: np.ndarray, weights: np.ndarray) -> np.ndarray:
         """``sum_r weights_r J_r^T`` over the given rows, on the movable degrees of freedom."""
-        return np.bincount(columns.ravel(), (values * weights[:, None]).ravel(), self.dof + 1)[:self.dof]
-
-    def velocities(self, q: np.ndarray) -> np.ndarray:
-        """The movable degrees of freedom's velocities under scaled impulses ``q``, with a 0 appended (the
-        velocity of ``dof``, the column of no velocity)."""
-        return np.append(self.v0 + self.inv * self.spread(self.values, self.columns, self.k * q), 0.0)
+        return mode_rows.spread(values, columns, weights, self.dof)
 
     def merit(self, q: np.ndarray, center: np.ndarray | None = None) -> float:
         """The contract's residual (m/s) of scaled impulses ``q``, from ``W`` (the min map of every normal,
@@ -582,19 +578,12 @@ class ModeSystem:
         carry the proximal term ``d (q - center)`` (see ``step``)."""
         m = self.m
         with np.errstate(over="ignore", invalid="ignore"):  # a step run off to infinity: merit inf
-            gap = self.gap(q, center)
-            qn, qt = q[:m], q[m:]
-            bound = self.cone * qn
-            normal = np.abs(np.minimum(qn, gap[:m]))
-            tangent = np.abs(qt - np.minimum(np.maximum(qt - gap[m:], -bound), bound))
-            worst = max(normal.max(), tangent.max())
-        return worst if np.isfinite(worst) else np.inf
+            return float(mode_rows.merit(q[:m], q[m:], self.gap(q, center), self.cone))
 
     def gap(self, q: np.ndarray, center: np.ndarray | None = None) -> np.ndarray:
         """``J v - target`` (m/s) for the velocities of scaled impulses ``q``, plus ``d (q - center)`` with a
         ``center``."""
-        v = self.velocities(q)
-        gap = (self.values * v[self.columns]).sum(axis=1) + self.fixed_u - self.target
+        gap = mode_rows.gaps(self.values, self.columns, self.k * q, self.v0, self.inv, self.fixed_u, self.target)
         return gap if center is None else gap + self.proximal * (q - center)
 
     def read(self, q: np.ndarray, center: np.ndarray | None = None) -> np.ndarray:
@@ -627,13 +616,7 @@ class ModeSystem:
         point = free[normal]
         g[normal] += (sign * self.mu * self.k[:m])[point][:, None] * self.values[m + point]
         self.g = g
-        entries = g[:, :, None] * self.j_rows[:, None, :] / self.proximal
-        rows = np.broadcast_to(self.j_columns[:, :, None], entries.shape)
-        cols = np.broadcast_to(self.j_columns[:, None, :], entries.shape)
-        keep = (rows < dof) & (cols < dof)
-        diagonal = np.arange(dof)
-        matrix = sparse.csc_matrix((np.concatenate([1.0 / self.inv, entries[keep]]),
-                                    (np.concatenate([diagonal, rows[keep]]), np.concatenate([diagonal, cols[keep]]))),
+        matrix = sparse.csc_matrix(mode_rows.matrix(1.0 / self.inv, g, self.j_rows, self.j_columns, self.proximal),
                                    shape=(dof, dof))
         try:
             # symmetric unless a point slides: then pivot for stability, as for any unsymmetric matrix
@@ -678,7 +661,7 @@ class ModeSystem:
                 h = base + self.proximal * out
                 v = np.append(self.factors.solve(momentum + self.spread(self.g, self.j_columns, h) / self.proximal),
                               0.0)
-                new = (h - (self.j_rows * v[self.j_columns]).sum(axis=1)) / self.proximal
+                new = (h - mode_rows.gathered(self.j_rows, self.j_columns, v)) / self.proximal
                 change = np.abs(new - out).max(initial=0.0)
                 out = new
                 if change <= 1e-3 * TOLERANCE:
