@@ -157,7 +157,7 @@ def test_a_tall_stack_is_held_still_by_the_first_try(monkeypatch: pytest.MonkeyP
     # every point touches (target 0) and the stack starts at rest, so the exact answer holds every box still
     p = _tall_stack(40)
     assert p.points == 80
-    sol = solve(p)
+    sol = solve(p, interior=False)
     assert residual(p, sol.pn, sol.pt) < 1e-10
     # each of the 40 faces may slip and turn by what the 1e-10 m/s residual lets it; a box's turn carries every
     # box above it sideways by its lever, so the top moves up to ~40 * 40 / 2 * 2e-10 m/s
@@ -166,7 +166,7 @@ def test_a_tall_stack_is_held_still_by_the_first_try(monkeypatch: pytest.MonkeyP
     # its boxes tilting together give the Delassus matrix eigenvalues far below a proximal weight of 1e-3,
     # where each proximal step removes almost nothing of the error along them: the first try then stalls
     monkeypatch.setattr(reference, "PROXIMAL", 1e-3)
-    assert solve(p).attempt > 1
+    assert solve(p, interior=False).attempt > 1
 
 
 def test_a_solve_that_does_not_get_there_says_so(monkeypatch: pytest.MonkeyPatch) -> None:
@@ -177,7 +177,7 @@ def test_a_solve_that_does_not_get_there_says_so(monkeypatch: pytest.MonkeyPatch
     monkeypatch.setattr(reference, "SETTLE_ROUNDS", 0)  # and so would the proximal point method
     with pytest.raises(ReferenceFailure, match=r"not solved to 1e-10 m/s in 11 tries \(1 damped or 2 full Newton "
                                                r"rounds each, Lemke pivoting\) and \d+ sweeps: best residual"):
-        solve(p, sweeps=0, rounds=1)
+        solve(p, sweeps=0, rounds=1, interior=False)
     stuck = ContactProblem(np.zeros(1), np.zeros(1), np.zeros((1, 3)), np.array([-1]), np.array([0]),
                            np.array([[0.0, 1.0]]), np.zeros((1, 2)), np.zeros((1, 2)), np.ones(1), np.ones(1))
     with pytest.raises(ReferenceFailure, match="two immovable bodies"):
@@ -227,7 +227,7 @@ def test_a_face_that_cannot_stick_at_both_points_is_solved(index: int) -> None:
     for k in range(p.points):
         faces.setdefault((p.body_a[k], p.body_b[k]), []).append(p.target[k])
     assert any(len(t) == 2 and t[0] != t[1] for t in faces.values())
-    sol = solve(p, pn, pt)
+    sol = solve(p, pn, pt, interior=False)
     assert residual(p, sol.pn, sol.pt) < 1e-10
     assert np.array_equal(sol.velocity, velocities_after(p, sol.pn, sol.pt))
     slides = np.isclose(np.abs(sol.pt), p.friction * sol.pn, rtol=0, atol=1e-12) & (sol.pn > 1e-9)
@@ -282,11 +282,11 @@ def test_a_pile_every_newton_try_cycles_on_is_solved_by_proximal_points() -> Non
     # before it, the solve gave up at 6.6e-6 m/s. Tries 1-3 are the damped and full Newton rounds.
     (p, pn, pt), = _recorded("xpbd_pyramid_step")
     assert p.points == 214
-    sol = solve(p, pn, pt)
+    sol = solve(p, pn, pt, interior=False)
     assert residual(p, sol.pn, sol.pt) < 1e-10
     assert sol.attempt == 4
     # begun at the try that landed it (as a run does after a step that try landed): the same answer
-    again = solve(p, pn, pt, begin=4)
+    again = solve(p, pn, pt, begin=4, interior=False)
     assert again.attempt == 4 and np.array_equal(again.pn, sol.pn) and np.array_equal(again.pt, sol.pt)
 
 
@@ -296,11 +296,11 @@ def test_a_quick_solve_makes_the_first_two_tries_of_its_order_with_a_short_walk(
 
     (p, pn, pt), = _recorded("xpbd_pyramid_step")
     with pytest.raises(ReferenceFailure, match="in 2 tries"):
-        solve(p, pn, pt, quick=True)  # the two cheap tries: this pile needs the walk
-    assert solve(p, pn, pt, quick=True, begin=4).attempt == 4
+        solve(p, pn, pt, quick=True, interior=False)  # the two cheap tries: this pile needs the walk
+    assert solve(p, pn, pt, quick=True, begin=4, interior=False).attempt == 4
     monkeypatch.setattr(reference, "SETTLE_QUICK", 5)
     with pytest.raises(ReferenceFailure, match="in 2 tries"):
-        solve(p, pn, pt, quick=True, begin=4)
+        solve(p, pn, pt, quick=True, begin=4, interior=False)
 
 
 def test_what_makes_the_xpbd_pile_hard_is_its_points_closing_a_hair_gap() -> None:
@@ -315,7 +315,7 @@ def test_what_makes_the_xpbd_pile_hard_is_its_points_closing_a_hair_gap() -> Non
         keep = ~drop
         sub = ContactProblem(p.inv_mass, p.inv_inertia, p.velocity, p.body_a[keep], p.body_b[keep], p.normal[keep],
                              p.ra[keep], p.rb[keep], p.friction[keep], p.target[keep])
-        found = solve(sub, pn[keep], pt[keep])
+        found = solve(sub, pn[keep], pt[keep], interior=False)
         assert residual(sub, found.pn, found.pt) < 1e-10
         return found.attempt
 
@@ -409,8 +409,8 @@ def test_a_solve_begun_at_another_try_that_misses_is_made_again_in_the_default_o
     # fifth try (the one that landed the step before), every try missed, at 1.3e-10 m/s; in the default order
     # the fourth lands
     (p, pn, pt), = _recorded("domino_step")
-    sol = solve(p, pn, pt, begin=5)
+    sol = solve(p, pn, pt, begin=5, interior=False)
     assert residual(p, sol.pn, sol.pt) < 1e-10
-    assert sol.attempt == solve(p, pn, pt).attempt == 4
+    assert sol.attempt == solve(p, pn, pt, interior=False).attempt == 4
     with pytest.raises(ReferenceFailure):  # a quick solve has no second order
-        solve(p, pn, pt, begin=5, quick=True)
+        solve(p, pn, pt, begin=5, quick=True, interior=False)

@@ -125,6 +125,7 @@ import numpy as np
 
 from stackx.kernel import compiled, enabled, kernel
 from stackx.models.planar import mode_rows
+from stackx.models.planar.interior import central_path
 from stackx.models.planar.problem import (GROUND, ContactProblem, effective_masses, inverse_masses, jacobian_rows,
                                           point_residuals, residual, velocities_after)
 
@@ -136,6 +137,7 @@ SWEEPS = 200  # most projected Gauss-Seidel sweeps before the first Newton round
 CHUNK = 10  # sweeps between looks at the residual
 NEAR = 1e-3  # m/s: the sweeps stop once the residual is below this (Newton takes it from there)
 ROUNDS = 20  # Newton rounds of each try before the next one (three tries before the solve gives up)
+WARM_ROUNDS = 2  # Newton rounds from a near warm start before the interior point stage
 REFINE = 30  # most proximal steps per Newton round (each a solve with the round's factorization)
 QUICK = 2  # tries of a quick solve: the first two of its order (from the warm start: damped, then full rounds)
 WANDER = 3  # full Newton steps in a row that may leave the residual above the best (last try)
@@ -237,7 +239,7 @@ def backtrack(merit: Callable[[np.ndarray], float], q: np.ndarray, target: np.nd
 
 def solve(problem: ContactProblem, pn: np.ndarray | None = None, pt: np.ndarray | None = None,
           tolerance: float = TOLERANCE, sweeps: int = SWEEPS, rounds: int = ROUNDS, quick: bool = False,
-          begin: int = 1) -> Solution:
+          begin: int = 1, interior: bool = True) -> Solution:
     """Solve ``problem`` to ``residual < tolerance`` (m/s), starting from impulses ``pn``, ``pt`` (a warm
     start, e.g. the last step's by feature; zeros when None). ``begin``: the try (numbered as
     ``Solution.attempt``) to make first, the ones before it coming last: the try that landed the last step of
@@ -480,6 +482,24 @@ def solve(problem: ContactProblem, pn: np.ndarray | None = None, pt: np.ndarray 
 
     warm, zero = np.concatenate([pn / kn, pt / kt]), np.zeros(2 * m)
     starts = [warm, zero] if pn.any() or pt.any() else [warm]
+    if interior:
+        # a warm start near the answer (a pile at rest: the last step's answer is this one's) lands in a round or
+        # two of its own modes, the first try's opening: cheaper than any path
+        if newton.merit(warm) < NEAR:
+            found, _ = attempt(warm, WARM_ROUNDS, 0)
+            if found is not None:
+                return found
+        # the interior point stage (``interior``): the central path from the problem alone, then the two cheap
+        # Newton tries from where it ends; a landing there is ``attempt`` 0
+        newton.modes = None
+        path, _, ended_on_path = central_path(newton.values, newton.columns, newton.k, newton.cone, newton.v0,
+                                              newton.inv, newton.fixed_u, newton.target)
+        for run in (partial(attempt, path, rounds, 0), partial(full, path, 2 * rounds)) if ended_on_path else ():
+            newton.modes = None
+            found, _ = run()
+            if found is not None:
+                found.attempt = 0
+                return found
     # every try is checked by the residual, so the order changes nothing but the cost: the cheap tries first,
     # then (on small problems, where it costs a few tens of ms) Lemke's pivoting, then the proximal point
     # method (seconds on a 20-row pyramid), then heavier Newton tries, and Lemke last on larger problems,
@@ -515,7 +535,7 @@ def solve(problem: ContactProblem, pn: np.ndarray | None = None, pt: np.ndarray 
         # the tries are the same in any order, but not what they leave each other (the stall probed once, the
         # modes read): a row that begins with the try that landed its last step (the fifth, on a leaning row of
         # dominoes) can miss a step the default order lands, so the default order has the last word
-        return solve(problem, pn, pt, tolerance, sweeps, rounds)
+        return solve(problem, pn, pt, tolerance, sweeps, rounds, interior=False)
     kept = warm if closest[1] is None else closest[1]
     kept_pn, kept_pt = np.maximum(kept[:m], 0.0) * kn, kept[m:] * kt
     kept_pt = np.clip(kept_pt, -problem.friction * kept_pn, problem.friction * kept_pn)

@@ -146,7 +146,9 @@ class ReferenceStep:
             if failure.best > NEAR_MISS:  # a near miss says the full tries work on this run: it is not counted
                 self.missed[b] += 1
             raise
-        self.missed[b], self.landed[b] = 0, found.attempt
+        self.missed[b] = 0
+        if found.attempt:  # the interior point stage (0) comes first anyway: the memory is of the tries after it
+            self.landed[b] = found.attempt
         self.keep(b, count, found)
         return found
 

@@ -1,0 +1,105 @@
+"""The interior point stage of the planar reference (``stackx.models.planar.interior``): against brute force
+where the answer is unique, and on recorded steps that only the later tries of the reference could land."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from stackx.kernel import compiled
+from stackx.models.planar import interior, reference
+from stackx.models.planar.problem import effective_masses, residual, velocities_after
+from stackx.models.planar.step_problem import ReferenceStep
+from tests.planar.hand_states import pyramid
+from tests.planar.test_pivoting import _recorded_npz
+from tests.planar.test_reference import _recorded, brute_force, random_problem
+
+
+def path_end(p):  # type: ignore[no-untyped-def]
+    """The central path's end for problem ``p``: its velocities, iterations and whether it got there."""
+    kn, kt = effective_masses(p)
+    s = reference.ModeSystem(p, kn, kt)
+    q, iterations, ended = interior.central_path(s.values, s.columns, s.k, s.cone, s.v0, s.inv, s.fixed_u, s.target)
+    m = p.points
+    return velocities_after(p, np.maximum(q[:m], 0.0) * kn, q[m:] * kt), iterations, ended
+
+
+@pytest.mark.parametrize("on", [False, True])
+def test_without_friction_the_path_ends_on_the_one_answer(on: bool) -> None:
+    # frictionless, a step is a convex problem whose velocities are unique: the path must reach them from its
+    # own start, whatever the problem (points between two boxes, a static one and the ground, some closing gaps)
+    rng = np.random.default_rng(11)
+    with compiled(on):
+        for points in (1, 2, 3, 4, 5):
+            for _ in range(4):
+                p = random_problem(rng, points)
+                p.friction[:] = 0.0
+                (answer,) = {tuple(np.round(v, 6).ravel()): v for v in brute_force(p)}.values()
+                v, iterations, ended = path_end(p)
+                assert ended == 1 and iterations < interior.ITERATIONS
+                assert np.abs(v - answer).max() < 1e-9
+
+
+def test_with_friction_the_path_ends_near_an_answer() -> None:
+    rng = np.random.default_rng(12)
+    ended_near = 0
+    for points in (1, 2, 3, 4):
+        for _ in range(6):
+            p = random_problem(rng, points)
+            v, _, ended = path_end(p)
+            if ended:
+                ended_near += min(np.abs(v - a).max() for a in brute_force(p)) < 1e-5
+    assert ended_near >= 20  # of 24: where friction folds the path it may jam, and the later tries take over
+
+
+@pytest.mark.parametrize("name", ["landing_step", "xpbd_pyramid_step", "domino_step", "trembling_stack_step"])
+def test_recorded_steps_the_newton_tries_missed_land_from_the_path(name: str) -> None:
+    # a box landing on a pile (Lemke's walk before), a pile seen through a speculative margin and a leaning row
+    # of dominoes (the proximal point walk before), a trembling stack (the full rounds from zero before)
+    for p, pn, pt in _recorded(name):
+        sol = reference.solve(p, pn, pt)
+        assert sol.attempt == 0
+        assert residual(p, sol.pn, sol.pt) < 1e-10
+        assert np.array_equal(sol.velocity, velocities_after(p, sol.pn, sol.pt))
+
+
+def test_a_settling_20_row_pyramid_lands_from_the_path() -> None:
+    # 800 points, 210 boxes: every Newton try and the proximal point walk missed it; Lemke's walk on the
+    # regularized problem took seconds
+    p, pn, pt = _recorded_npz("soft_pyramid20_step")
+    sol = reference.solve(p, pn, pt)
+    assert sol.attempt == 0
+    assert residual(p, sol.pn, sol.pt) < 1e-10
+
+
+def test_a_warm_start_at_the_answer_needs_no_path(monkeypatch: pytest.MonkeyPatch) -> None:
+    (p, pn, pt), = _recorded("xpbd_pyramid_step")
+    sol = reference.solve(p, pn, pt)
+
+    def refused(*args: object) -> None:
+        raise AssertionError("the path was followed")
+
+    monkeypatch.setattr(reference, "central_path", refused)
+    again = reference.solve(p, sol.pn, sol.pt)
+    assert again.attempt == 1 and again.rounds <= reference.WARM_ROUNDS
+    assert residual(p, again.pn, again.pt) < 1e-10
+
+
+def test_a_landing_from_the_path_leaves_the_row_s_memory_of_its_tries(monkeypatch: pytest.MonkeyPatch) -> None:
+    from stackx.models.planar import step_problem
+
+    state = pyramid(3)
+    memory = ReferenceStep(1, state.bodies)
+    landings = iter([4, 0, 0])
+    begun = []
+
+    def solve(problem, pn, pt, quick=False, begin=1):  # type: ignore[no-untyped-def]
+        begun.append(begin)
+        return reference.Solution(pn, pt, velocities_after(problem, pn, pt), 0.0, 0, 0, next(landings))
+
+    monkeypatch.setattr(step_problem, "solve", solve)
+    for _ in range(3):
+        memory.solve(0, state.x[0], state.y[0], state.angle[0], state.vx[0], state.vy[0], state.w[0],
+                     state.inv_mass[0], state.inv_inertia[0], state.hx[0], state.hy[0], state.friction[0], -9.8,
+                     1 / 60, 0.0)
+    assert begun == [1, 4, 4]  # the path landed the second step: the third still begins its tries at the fourth
