@@ -179,6 +179,10 @@ def bench_costs(path: str, steps: int | None) -> tuple[float, dict[str, dict[str
         t0 = time.perf_counter()
         try:
             return plain_solve(self, b, *args)
+        except reference.ReferenceFailure:
+            if current[0] is not None:
+                spent[(id(current[0]), b)]["unsolved"] += 1
+            raise
         finally:
             if current[0] is not None:  # the step log's solves, not planar-exact's own
                 spent[(id(current[0]), b)]["reference"] += time.perf_counter() - t0
@@ -207,12 +211,13 @@ def bench_costs(path: str, steps: int | None) -> tuple[float, dict[str, dict[str
     case = results[0].name if results else Path(path).stem
     runs: dict[str, dict[str, float]] = defaultdict(lambda: defaultdict(float))
     for key, (log, run_names) in names.items():
-        rest = batch_log[key] - sum(v for (k, _), row in spent.items() if k == key for v in row.values())
+        rest = batch_log[key] - sum(row["reference"] + row["own"] for (k, _), row in spent.items() if k == key)
         for b, name in enumerate(run_names):
             row, run = spent[(key, b)], runs[f"{case} {name}"]
             run["steps"] += log.steps
             run["reference"] += row["reference"]
             run["own"] += row["own"]
+            run["unsolved"] += row["unsolved"]
             run["log"] += row["reference"] + row["own"] + rest / len(run_names)
     return wall, runs
 
@@ -222,13 +227,14 @@ def bench_main(path: str, steps: int | None) -> None:
     wall, runs = bench_costs(path, steps)
     logged = sum(r["log"] for r in runs.values())
     cap = "" if steps is None else f" --set steps={steps}"
+    unsolved = sum(r["unsolved"] for r in runs.values())
     print(f"stackx bench {path}{cap}: {wall:.1f} s wall, of which the step log {logged:.1f} s "
-          f"({100 * logged / wall:.0f}%), {len(runs)} runs")
-    print(f"{'run':<56}{'steps':>7}{'ref ms':>9}{'log ms':>9}{'own us':>9}")
+          f"({100 * logged / wall:.0f}%), {len(runs)} runs, {unsolved:.0f} steps the reference did not solve")
+    print(f"{'run':<56}{'steps':>7}{'ref ms':>9}{'log ms':>9}{'own us':>9}{'unsolved':>9}")
     for name, r in runs.items():
         n = max(r["steps"], 1)
         print(f"{name:<56}{r['steps']:>7.0f}{1e3 * r['reference'] / n:>9.2f}{1e3 * r['log'] / n:>9.2f}"
-              f"{1e6 * r['own'] / n:>9.0f}")
+              f"{1e6 * r['own'] / n:>9.0f}{r['unsolved']:>9.0f}")
 
 
 def line(name: str, m: dict[str, float]) -> str:
