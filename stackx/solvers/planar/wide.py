@@ -66,81 +66,80 @@ BODY_COLUMNS = 8
 
 
 @kernel
-def block_workspace(blocks: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Room for ``blocks`` blocks: ``(record, sides, rows)``: the records, each lane's two bodies, and each
-    lane's two points' table rows (``NONE`` where there is no point)."""
-    return np.empty(blocks * BLOCK), np.empty((blocks * LANES, 2), np.uint64), np.empty(blocks * LANES * 2, np.uint64)
-
-
-@leaf
-def blocks_needed(tally: np.ndarray, waves: int) -> int:
-    """Blocks of ``LANES`` manifolds the waves take (``tally`` from ``wavefronts``)."""
-    blocks, begin = 0, 0
-    for v in range(waves):
-        blocks += (tally[v] - begin + LANES - 1) // LANES
-        begin = tally[v]
-    return blocks
+def block_workspace(blocks: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Room for ``blocks`` blocks: ``(record, sides, rows, owner)``: the records, each lane's two bodies, each
+    lane's two points' table rows (``NONE`` where there is no point) and which world of the layout each
+    lane's manifold belongs to (``lay_out``'s ``member``)."""
+    return (np.empty(blocks * BLOCK), np.empty((blocks * LANES, 2), np.uint64), np.empty(blocks * LANES * 2, np.uint64),
+            np.empty(blocks * LANES, np.int64))
 
 
 @leaf
 def lay_out(x: np.ndarray, y: np.ndarray, inv_mass: np.ndarray, inv_inertia: np.ndarray, friction: np.ndarray,
             ids: np.ndarray, table: np.ndarray, first: np.ndarray, order: np.ndarray, waves: int,
-            tally: np.ndarray, softness: np.ndarray, ends: np.ndarray, sides: np.ndarray, rows: np.ndarray,
-            record: np.ndarray) -> None:
-    """The step's manifolds in blocks, wave by wave (``order``, ``tally`` from ``wavefronts``), with all a
-    visit reads that does not change within the step, found once; ``ends[v]``: where wave ``v``'s blocks
-    end. The arithmetic of ``contacts.prepare`` and ``substep.base_separations``; softness row 1 where a side
-    is static (the ground or a static box); impulses as ``recall`` left them in the table. A lane without a
-    manifold has the ground (body ``n``) on both sides and zeros; a missing second point, zeros."""
-    ground = np.uint64(x.shape[0])
-    blk, begin = np.uint64(0), 0
+            tally: np.ndarray, softness: np.ndarray, place: np.ndarray, offset: int, ground: int, member: int,
+            sides: np.ndarray, rows: np.ndarray, owner: np.ndarray, record: np.ndarray) -> None:
+    """One world's manifolds in lanes, wave by wave (``order``, ``tally`` from ``wavefronts``), with all a
+    visit reads that does not change within the step, found once: wave ``v``'s manifolds in consecutive lanes
+    from lane ``place[v]`` (lane ``l`` is lane ``l % LANES`` of block ``l // LANES``). The world's bodies are
+    the passes' body rows ``offset`` on and the ground is row ``ground``, so several worlds laid out in one
+    set of blocks share no body and a wave's blocks may hold manifolds of several (``member`` names this one
+    in ``owner``). The arithmetic of ``contacts.prepare`` and ``substep.base_separations``; softness row 1
+    where a side is static (the ground or a static box); impulses as ``recall`` left them in the table. A
+    missing second point has zeros; lanes without a manifold are ``empty_lanes``' and the effective masses
+    ``effective_masses``', once the blocks are full."""
+    none = np.uint64(ground)
+    begin = 0
     for v in range(waves):
-        for j0 in range(begin, tally[v], LANES):
-            o = blk * np.uint64(BLOCK)
-            for lane in range(LANES):
-                slot = blk * np.uint64(LANES) + np.uint64(lane)
-                sides[slot, 0], sides[slot, 1] = ground, ground
-                rows[np.uint64(2) * slot], rows[np.uint64(2) * slot + np.uint64(1)] = NONE, NONE
-                jj = j0 + lane
-                if jj >= tally[v]:
-                    for f in range(np.uint64(0), R_VAX, np.uint64(LANES)):
-                        record[o + f + np.uint64(lane)] = 0.0
-                    continue
-                k0, k1 = first[order[jj]], first[order[jj] + 1]
-                a, b = ids[k0, A], ids[k0, B]
-                imb, iib = inv_mass[b], inv_inertia[b]
-                ima, iia = (inv_mass[a], inv_inertia[a]) if a >= 0 else (0.0, 0.0)
-                soft = 1 if a < 0 or ima == 0.0 or imb == 0.0 else 0
-                sides[slot, 0], sides[slot, 1] = np.uint64(a) if a >= 0 else ground, np.uint64(b)
-                at = o + np.uint64(lane)
-                record[at + R_IMA], record[at + R_IIA] = ima, iia
-                record[at + R_IMB], record[at + R_IIB] = imb, iib
-                record[at + R_MU] = np.sqrt(friction[a] * friction[b]) if a >= 0 else friction[b]
-                record[at + R_BIAS] = softness[soft, 0]
-                record[at + R_SCALE] = softness[soft, 1]
-                record[at + R_LET_GO] = softness[soft, 2]
-                record[at + R_MOVES_A] = 1.0 if a >= 0 else 0.0
-                record[at + R_TWO] = 1.0 if k1 - k0 > 1 else 0.0
-                if k1 - k0 == 1:  # no second point: zeros, which the passes compute with and then drop
-                    for f in range(R_NX, R_NX + SECOND, np.uint64(LANES)):
-                        record[at + SECOND + f] = 0.0
-                for q in range(k1 - k0):
-                    k = k0 + q
-                    rows[np.uint64(2) * slot + np.uint64(q)] = np.uint64(k)
-                    nx, ny = table[k, NX], table[k, NY]
-                    px, py = table[k, PX], table[k, PY]
-                    rbx, rby = px - x[b], py - y[b]
-                    rax, ray = (px - x[a], py - y[a]) if a >= 0 else (0.0, 0.0)
-                    p = at + np.uint64(q) * SECOND
-                    record[p + R_NX], record[p + R_NY] = nx, ny
-                    record[p + R_RAX], record[p + R_RAY] = rax, ray
-                    record[p + R_RBX], record[p + R_RBY] = rbx, rby
-                    record[p + R_BASE] = -table[k, DEPTH] - ((rbx - rax) * nx + (rby - ray) * ny)
-                    record[p + R_PN], record[p + R_PT] = table[k, PN], table[k, PT]
-            blk += np.uint64(1)
-        ends[v] = blk
+        for jj in range(begin, tally[v]):
+            slot = np.uint64(place[v] + (jj - begin))
+            owner[slot] = member
+            rows[np.uint64(2) * slot], rows[np.uint64(2) * slot + np.uint64(1)] = NONE, NONE
+            k0, k1 = first[order[jj]], first[order[jj] + 1]
+            a, b = ids[k0, A], ids[k0, B]
+            imb, iib = inv_mass[b], inv_inertia[b]
+            ima, iia = (inv_mass[a], inv_inertia[a]) if a >= 0 else (0.0, 0.0)
+            soft = 1 if a < 0 or ima == 0.0 or imb == 0.0 else 0
+            sides[slot, 0] = np.uint64(offset + a) if a >= 0 else none
+            sides[slot, 1] = np.uint64(offset + b)
+            at = (slot // np.uint64(LANES)) * np.uint64(BLOCK) + slot % np.uint64(LANES)
+            record[at + R_IMA], record[at + R_IIA] = ima, iia
+            record[at + R_IMB], record[at + R_IIB] = imb, iib
+            record[at + R_MU] = np.sqrt(friction[a] * friction[b]) if a >= 0 else friction[b]
+            record[at + R_BIAS] = softness[soft, 0]
+            record[at + R_SCALE] = softness[soft, 1]
+            record[at + R_LET_GO] = softness[soft, 2]
+            record[at + R_MOVES_A] = 1.0 if a >= 0 else 0.0
+            record[at + R_TWO] = 1.0 if k1 - k0 > 1 else 0.0
+            if k1 - k0 == 1:  # no second point: zeros, which the passes compute with and then drop
+                for f in range(R_NX, R_NX + SECOND, np.uint64(LANES)):
+                    record[at + SECOND + f] = 0.0
+            for q in range(k1 - k0):
+                k = k0 + q
+                rows[np.uint64(2) * slot + np.uint64(q)] = np.uint64(k)
+                nx, ny = table[k, NX], table[k, NY]
+                px, py = table[k, PX], table[k, PY]
+                rbx, rby = px - x[b], py - y[b]
+                rax, ray = (px - x[a], py - y[a]) if a >= 0 else (0.0, 0.0)
+                p = at + np.uint64(q) * SECOND
+                record[p + R_NX], record[p + R_NY] = nx, ny
+                record[p + R_RAX], record[p + R_RAY] = rax, ray
+                record[p + R_RBX], record[p + R_RBY] = rbx, rby
+                record[p + R_BASE] = -table[k, DEPTH] - ((rbx - rax) * nx + (rby - ray) * ny)
+                record[p + R_PN], record[p + R_PT] = table[k, PN], table[k, PT]
         begin = tally[v]
-    effective_masses(record, blk)
+
+
+@leaf
+def empty_lanes(record: np.ndarray, sides: np.ndarray, rows: np.ndarray, begin: int, end: int, ground: int) -> None:
+    """Lanes ``begin`` to ``end`` hold no manifold: the ground on both sides, no points, zeros, which the passes
+    compute with and nothing reads back."""
+    for lane in range(np.uint64(begin), np.uint64(end)):
+        sides[lane, 0], sides[lane, 1] = np.uint64(ground), np.uint64(ground)
+        rows[np.uint64(2) * lane], rows[np.uint64(2) * lane + np.uint64(1)] = NONE, NONE
+        at = (lane // np.uint64(LANES)) * np.uint64(BLOCK) + lane % np.uint64(LANES)
+        for f in range(np.uint64(0), R_VAX, np.uint64(LANES)):
+            record[at + f] = 0.0
 
 
 @leaf
@@ -161,11 +160,13 @@ def effective_masses(record: np.ndarray, blocks: np.uint64) -> None:
 
 
 @leaf
-def give_back(table: np.ndarray, rows: np.ndarray, record: np.ndarray, blocks: int) -> None:
-    """Each point's accumulated impulses back to its row of the table, where ``remember`` keeps them."""
+def give_back(table: np.ndarray, rows: np.ndarray, owner: np.ndarray, member: int, record: np.ndarray,
+              blocks: int) -> None:
+    """Each point of world ``member`` (``lay_out``): its accumulated impulses back to its row of the table,
+    where ``remember`` keeps them."""
     for slot in range(np.uint64(blocks * LANES * 2)):
         k = rows[slot]
-        if k != NONE:
+        if k != NONE and owner[slot // np.uint64(2)] == member:
             at = point_at(slot)
             table[k, PN], table[k, PT] = record[at + R_PN], record[at + R_PT]
 
@@ -180,12 +181,13 @@ def point_at(slot: np.uint64) -> np.uint64:
 
 
 @leaf
-def add_applied(rows: np.ndarray, record: np.ndarray, blocks: int, applied: np.ndarray) -> None:
-    """``applied.add_applied`` on the blocks: the end of a substep adds each point's accumulated impulses,
-    which the substep applied, to ``applied`` at the point's table row."""
+def add_applied(rows: np.ndarray, owner: np.ndarray, member: int, record: np.ndarray, blocks: int,
+                applied: np.ndarray) -> None:
+    """``applied.add_applied`` on the blocks, for world ``member``'s points: the end of a substep adds each
+    point's accumulated impulses, which the substep applied, to ``applied`` at the point's table row."""
     for slot in range(np.uint64(blocks * LANES * 2)):
         k = rows[slot]
-        if k < applied.shape[0]:
+        if k < applied.shape[0] and owner[slot // np.uint64(2)] == member:
             at = point_at(slot)
             applied[k, 0] += record[at + R_PN]
             applied[k, 1] += record[at + R_PT]
@@ -382,3 +384,25 @@ def soft_pass(bodies: np.ndarray, sides: np.ndarray, record: np.ndarray, waves: 
         for blk in range(begin, end):
             scatter(bodies, sides, record, blk)
         begin = end
+
+
+@leaf
+def place_waves(tally: np.ndarray, waves: np.ndarray, most: int, place: np.ndarray, used: np.ndarray,
+                ends: np.ndarray) -> int:
+    """Where the manifolds of several worlds go in one set of blocks (``tally[r]`` and ``waves[r]`` world
+    ``r``'s from ``wavefronts``, ``most`` the largest of ``waves``): wave ``v`` of every world side by side, world
+    by world, in the blocks of the layout's wave ``v``. ``place[r, v]``: the lane world ``r``'s wave ``v`` begins
+    at (``lay_out``); ``used[v]``: one past the last lane of wave ``v`` with a manifold; ``ends[v]``: where the
+    blocks of wave ``v`` end. Returns the blocks. The worlds share no body, so no manifold of a wave shares a
+    body with another of it, and each body meets its manifolds in its own world's order."""
+    blocks = 0
+    for v in range(most):
+        lane = blocks * LANES
+        for r in range(tally.shape[0]):
+            if v < waves[r]:
+                place[r, v] = lane
+                lane += tally[r, v] - (tally[r, v - 1] if v > 0 else 0)
+        used[v] = lane
+        blocks = (lane + LANES - 1) // LANES
+        ends[v] = np.uint64(blocks)
+    return blocks
