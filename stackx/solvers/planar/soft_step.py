@@ -56,8 +56,8 @@ from stackx.registry import solvers
 from stackx.solvers.planar.applied import clear_applied
 from stackx.solvers.planar.base import PlanarMemorySolver, StepImpulses
 from stackx.solvers.planar.kept import Kept, keep, take_back
-from stackx.solvers.planar.contacts import (COLUMNS, PN, PT, find_contacts_near, near_workspace,
-                                            observe_contacts, recall, remember)
+from stackx.solvers.planar.contacts import (COLUMNS, PN, PT, find_contacts_near, near_workspace, observe_contacts,
+                                            recall, remember, same_pairs)
 from stackx.solvers.planar.wavefront import manifold_starts, wavefronts
 from stackx.solvers.planar.wide import (BODY_COLUMNS, COS, D_X, D_Y, LANES, SIN, V_W, V_X, V_Y,
                                         add_applied, block_workspace, effective_masses, empty_lanes, give_back,
@@ -199,8 +199,9 @@ def step_rows(lo: int, hi: int, x: np.ndarray, y: np.ndarray, angle: np.ndarray,
     waves = np.empty(worlds, np.int64)
     room = keys.shape[1]
     first, order, wave, tally, place, ends, used = pass_workspace(room, worlds)
+    ordered = np.full(worlds, -1, np.int64)  # per row: the points its wave order is for (-1: none yet)
     latest = np.empty(n, np.int64)
-    record, sides, rows, owner = block_workspace(1)  # grown to the step's blocks at its first lay-out
+    record, sides, rows = block_workspace(1)  # grown to the step's blocks at its first lay-out
     start = np.empty((worlds * n, 3))  # where each body was when the step began
     bodies = np.empty((worlds * n + 1, BODY_COLUMNS))  # row r's bodies from r n on, the ground's last
     ground = worlds * n
@@ -221,23 +222,27 @@ def step_rows(lo: int, hi: int, x: np.ndarray, y: np.ndarray, angle: np.ndarray,
             room = max(room, ids_of[r].shape[0])
         if order.shape[1] < room:
             first, order, wave, tally, place, ends, used = pass_workspace(room, worlds)
+            ordered[:] = -1
         for r in range(worlds):
             b, ids, table = lo + r, ids_of[r], table_of[r]
+            # the last step's pairs again (a pile at rest): the same manifolds, so the wave order found for them
+            same = same_pairs(ids, count[r], keys[b], held[b]) and ordered[r] == count[r]
             table[:count[r], PN] = 0.0
             table[:count[r], PT] = 0.0
             if warm[b]:
                 recall(ids, table, count[r], keys[b], carried[b], held[b])
-            m = manifold_starts(ids, count[r], first[r])
-            waves[r] = wavefronts(ids, first[r], m, latest, wave[r], tally[r], order[r])
+            if not same:
+                m = manifold_starts(ids, count[r], first[r])
+                waves[r] = wavefronts(ids, first[r], m, latest, wave[r], tally[r], order[r])
+                ordered[r] = count[r]
             most = max(most, waves[r])
         blocks = place_waves(tally, waves, most, place, used, ends)
         if sides.shape[0] < blocks * LANES:
-            record, sides, rows, owner = block_workspace(blocks + blocks // 2)
+            record, sides, rows = block_workspace(blocks + blocks // 2)
         for r in range(worlds):
             b = lo + r
             lay_out(x[b], y[b], inv_mass[b], inv_inertia[b], friction[b], ids_of[r], table_of[r], first[r],
-                    order[r], waves[r], tally[r], softness[r], place[r], r * n, ground, r, sides, rows, owner,
-                    record)
+                    order[r], waves[r], tally[r], softness[r], place[r], r * n, ground, sides, rows, record)
         for v in range(most):
             empty_lanes(record, sides, rows, used[v], ends[v] * LANES, ground)
         effective_masses(record, np.uint64(blocks))
@@ -252,7 +257,7 @@ def step_rows(lo: int, hi: int, x: np.ndarray, y: np.ndarray, angle: np.ndarray,
         for i in range(substeps[lo]):
             for r in range(worlds):
                 body_gravity(bodies[r * n:], inv_mass[lo + r], g[lo + r], h)
-            warm_start(bodies, sides, record, blocks)
+            warm_start(bodies, sides, record, most, ends)
             # the relax pass measured the separations where the boxes still are
             soft_pass(bodies, sides, record, most, ends, h, True, push_out[lo], i == 0 or not relax[lo])
             for r in range(worlds):
@@ -262,11 +267,11 @@ def step_rows(lo: int, hi: int, x: np.ndarray, y: np.ndarray, angle: np.ndarray,
                 soft_pass(bodies, sides, record, most, ends, h, False, push_out[lo], True)
             if watched:
                 for r in range(worlds):
-                    add_applied(rows, owner, r, record, blocks, applied[lo + r])
+                    add_applied(rows, record, place[r], tally[r], waves[r], applied[lo + r])
         for r in range(worlds):
             b = lo + r
             store_velocities(bodies[r * n:], vx[b], vy[b], w[b])
-            give_back(table_of[r], rows, owner, r, record, blocks)
+            give_back(table_of[r], rows, record, place[r], tally[r], waves[r])
             held[b] = remember(ids_of[r], table_of[r], count[r], keys[b], carried[b])
             # where the step ended: the contacts of its monitors and of the next step (``observed_contacts``)
             ids_of[r], table_of[r], count[r], near_of[r] = find_contacts_near(

@@ -66,25 +66,22 @@ BODY_COLUMNS = 8
 
 
 @kernel
-def block_workspace(blocks: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Room for ``blocks`` blocks: ``(record, sides, rows, owner)``: the records, each lane's two bodies, each
-    lane's two points' table rows (``NONE`` where there is no point) and which world of the layout each
-    lane's manifold belongs to (``lay_out``'s ``member``)."""
-    return (np.empty(blocks * BLOCK), np.empty((blocks * LANES, 2), np.uint64), np.empty(blocks * LANES * 2, np.uint64),
-            np.empty(blocks * LANES, np.int64))
+def block_workspace(blocks: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Room for ``blocks`` blocks: ``(record, sides, rows)``: the records, each lane's two bodies, and each
+    lane's two points' table rows (``NONE`` where there is no point)."""
+    return np.empty(blocks * BLOCK), np.empty((blocks * LANES, 2), np.uint64), np.empty(blocks * LANES * 2, np.uint64)
 
 
 @leaf
 def lay_out(x: np.ndarray, y: np.ndarray, inv_mass: np.ndarray, inv_inertia: np.ndarray, friction: np.ndarray,
             ids: np.ndarray, table: np.ndarray, first: np.ndarray, order: np.ndarray, waves: int,
-            tally: np.ndarray, softness: np.ndarray, place: np.ndarray, offset: int, ground: int, member: int,
-            sides: np.ndarray, rows: np.ndarray, owner: np.ndarray, record: np.ndarray) -> None:
+            tally: np.ndarray, softness: np.ndarray, place: np.ndarray, offset: int, ground: int,
+            sides: np.ndarray, rows: np.ndarray, record: np.ndarray) -> None:
     """One world's manifolds in lanes, wave by wave (``order``, ``tally`` from ``wavefronts``), with all a
     visit reads that does not change within the step, found once: wave ``v``'s manifolds in consecutive lanes
     from lane ``place[v]`` (lane ``l`` is lane ``l % LANES`` of block ``l // LANES``). The world's bodies are
     the passes' body rows ``offset`` on and the ground is row ``ground``, so several worlds laid out in one
-    set of blocks share no body and a wave's blocks may hold manifolds of several (``member`` names this one
-    in ``owner``). The arithmetic of ``contacts.prepare`` and ``substep.base_separations``; softness row 1
+    set of blocks share no body and a wave's blocks may hold manifolds of several. The arithmetic of ``contacts.prepare`` and ``substep.base_separations``; softness row 1
     where a side is static (the ground or a static box); impulses as ``recall`` left them in the table. A
     missing second point has zeros; lanes without a manifold are ``empty_lanes``' and the effective masses
     ``effective_masses``', once the blocks are full."""
@@ -93,7 +90,6 @@ def lay_out(x: np.ndarray, y: np.ndarray, inv_mass: np.ndarray, inv_inertia: np.
     for v in range(waves):
         for jj in range(begin, tally[v]):
             slot = np.uint64(place[v] + (jj - begin))
-            owner[slot] = member
             rows[np.uint64(2) * slot], rows[np.uint64(2) * slot + np.uint64(1)] = NONE, NONE
             k0, k1 = first[order[jj]], first[order[jj] + 1]
             a, b = ids[k0, A], ids[k0, B]
@@ -160,15 +156,20 @@ def effective_masses(record: np.ndarray, blocks: np.uint64) -> None:
 
 
 @leaf
-def give_back(table: np.ndarray, rows: np.ndarray, owner: np.ndarray, member: int, record: np.ndarray,
-              blocks: int) -> None:
-    """Each point of world ``member`` (``lay_out``): its accumulated impulses back to its row of the table,
-    where ``remember`` keeps them."""
-    for slot in range(np.uint64(blocks * LANES * 2)):
-        k = rows[slot]
-        if k != NONE and owner[slot // np.uint64(2)] == member:
-            at = point_at(slot)
-            table[k, PN], table[k, PT] = record[at + R_PN], record[at + R_PT]
+def give_back(table: np.ndarray, rows: np.ndarray, record: np.ndarray, place: np.ndarray, tally: np.ndarray,
+              waves: int) -> None:
+    """Each point of one world laid out at ``place`` (``lay_out``): its accumulated impulses back to its row of
+    the table, where ``remember`` keeps them."""
+    begin = 0
+    for v in range(waves):
+        for lane in range(place[v], place[v] + tally[v] - begin):
+            for q in range(2):
+                slot = np.uint64(2 * lane + q)
+                k = rows[slot]
+                if k != NONE:
+                    at = point_at(slot)
+                    table[k, PN], table[k, PT] = record[at + R_PN], record[at + R_PT]
+        begin = tally[v]
 
 
 @leaf
@@ -181,42 +182,54 @@ def point_at(slot: np.uint64) -> np.uint64:
 
 
 @leaf
-def add_applied(rows: np.ndarray, owner: np.ndarray, member: int, record: np.ndarray, blocks: int,
+def add_applied(rows: np.ndarray, record: np.ndarray, place: np.ndarray, tally: np.ndarray, waves: int,
                 applied: np.ndarray) -> None:
-    """``applied.add_applied`` on the blocks, for world ``member``'s points: the end of a substep adds each
-    point's accumulated impulses, which the substep applied, to ``applied`` at the point's table row."""
-    for slot in range(np.uint64(blocks * LANES * 2)):
-        k = rows[slot]
-        if k < applied.shape[0] and owner[slot // np.uint64(2)] == member:
-            at = point_at(slot)
-            applied[k, 0] += record[at + R_PN]
-            applied[k, 1] += record[at + R_PT]
+    """``applied.add_applied`` on the blocks, for the points of one world laid out at ``place``: the end of a
+    substep adds each point's accumulated impulses, which the substep applied, to ``applied`` at the point's
+    table row."""
+    begin = 0
+    for v in range(waves):
+        for lane in range(place[v], place[v] + tally[v] - begin):
+            for q in range(2):
+                slot = np.uint64(2 * lane + q)
+                k = rows[slot]
+                if k < applied.shape[0]:
+                    at = point_at(slot)
+                    applied[k, 0] += record[at + R_PN]
+                    applied[k, 1] += record[at + R_PT]
+        begin = tally[v]
 
 
 @leaf
-def warm_start(bodies: np.ndarray, sides: np.ndarray, record: np.ndarray, blocks: int) -> None:
-    """``contacts.warm_start`` on the blocks: every point's accumulated impulses applied to its bodies, lane
-    by lane, a lane's points in order (which keeps each body's order of points, so the same sums)."""
-    ground = np.uint64(bodies.shape[0] - 1)
-    for slot in range(np.uint64(blocks * LANES)):
-        a, b = sides[slot, 0], sides[slot, 1]
-        if b == ground:
-            continue
-        at = (slot // np.uint64(LANES)) * np.uint64(BLOCK) + slot % np.uint64(LANES)
-        two = record[at + R_TWO] != 0.0
-        for q in range(2 if two else 1):
-            p = at + np.uint64(q) * SECOND
-            pn, pt = record[p + R_PN], record[p + R_PT]
-            if pn != 0.0 or pt != 0.0:
-                nx, ny = record[p + R_NX], record[p + R_NY]
-                px, py = pn * nx - pt * ny, pn * ny + pt * nx
-                bodies[b, V_X] += record[at + R_IMB] * px
-                bodies[b, V_Y] += record[at + R_IMB] * py
-                bodies[b, V_W] += record[at + R_IIB] * (record[p + R_RBX] * py - record[p + R_RBY] * px)
-                if a != ground:
-                    bodies[a, V_X] -= record[at + R_IMA] * px
-                    bodies[a, V_Y] -= record[at + R_IMA] * py
-                    bodies[a, V_W] -= record[at + R_IIA] * (record[p + R_RAX] * py - record[p + R_RAY] * px)
+def warm_start(bodies: np.ndarray, sides: np.ndarray, record: np.ndarray, waves: int, ends: np.ndarray) -> None:
+    """``contacts.warm_start`` on the blocks: every point's accumulated impulses applied to its bodies, wave by
+    wave as a pass walks them (the wave's bodies gathered, both points of every lane, scattered back). Each
+    body meets its points in the order of the points of the table (a wave's manifolds share no body, a
+    lane's points in order), so the same sums."""
+    begin = np.uint64(0)
+    for v in range(waves):
+        end = ends[v]
+        for blk in range(begin, end):
+            gather(bodies, sides, record, blk, False)
+        for blk in range(begin, end):
+            for lane in range(np.uint64(LANES)):
+                at = blk * np.uint64(BLOCK) + lane
+                for q in range(2):
+                    warm_visit(record, at, q)
+        for blk in range(begin, end):
+            scatter(bodies, sides, record, blk)
+        begin = end
+
+
+@inlined
+def warm_visit(record: np.ndarray, at: np.uint64, q: int) -> None:
+    """Point ``q``'s accumulated impulses applied in the lane whose fields start at ``at``, kept where the lane
+    has the point and it carries an impulse (``contacts.warm_start`` applies only those)."""
+    p = at + np.uint64(q) * SECOND
+    pn, pt = record[p + R_PN], record[p + R_PT]
+    nx, ny = record[p + R_NX], record[p + R_NY]
+    keep = (q == 0 or record[at + R_TWO] != 0.0) and (pn != 0.0 or pt != 0.0)
+    apply(record, at, p, pn * nx - pt * ny, pn * ny + pt * nx, keep)
 
 
 @inlined
