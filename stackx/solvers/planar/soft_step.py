@@ -216,8 +216,10 @@ def step_rows(lo: int, hi: int, x: np.ndarray, y: np.ndarray, angle: np.ndarray,
                 x[b], y[b], angle[b], hx[b], hy[b], inv_mass[b], speculative[b], near_of[r], fat_of[r], ids_of[r],
                 table_of[r])
     watched = applied.shape[1] > 0  # the step's impulses are summed only for a caller that reads them
+    laid = False  # whether the blocks hold the last step's layout
     for _ in range(steps):
         most = 0
+        kept_pairs = True  # whether every row's manifolds are the last step's, in the same order
         for r in range(worlds):
             room = max(room, ids_of[r].shape[0])
         if order.shape[1] < room:
@@ -227,6 +229,7 @@ def step_rows(lo: int, hi: int, x: np.ndarray, y: np.ndarray, angle: np.ndarray,
             b, ids, table = lo + r, ids_of[r], table_of[r]
             # the last step's pairs again (a pile at rest): the same manifolds, so the wave order found for them
             same = same_pairs(ids, count[r], keys[b], held[b]) and ordered[r] == count[r]
+            kept_pairs = kept_pairs and same
             table[:count[r], PN] = 0.0
             table[:count[r], PT] = 0.0
             if warm[b]:
@@ -239,10 +242,13 @@ def step_rows(lo: int, hi: int, x: np.ndarray, y: np.ndarray, angle: np.ndarray,
         blocks = place_waves(tally, waves, most, place, used, ends)
         if sides.shape[0] < blocks * LANES:
             record, sides, rows = block_workspace(blocks + blocks // 2)
-        for r in range(worlds):
+            laid = False
+        for r in range(worlds):  # the same manifolds in the same lanes: what depends on the pairs alone is there
             b = lo + r
             lay_out(x[b], y[b], inv_mass[b], inv_inertia[b], friction[b], ids_of[r], table_of[r], first[r],
-                    order[r], waves[r], tally[r], softness[r], place[r], r * n, ground, sides, rows, record)
+                    order[r], waves[r], tally[r], softness[r], place[r], r * n, ground, not (laid and kept_pairs),
+                    sides, rows, record)
+        laid = True
         for v in range(most):
             empty_lanes(record, sides, rows, used[v], ends[v] * LANES, ground)
         effective_masses(record, np.uint64(blocks))

@@ -75,7 +75,7 @@ def block_workspace(blocks: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 @leaf
 def lay_out(x: np.ndarray, y: np.ndarray, inv_mass: np.ndarray, inv_inertia: np.ndarray, friction: np.ndarray,
             ids: np.ndarray, table: np.ndarray, first: np.ndarray, order: np.ndarray, waves: int,
-            tally: np.ndarray, softness: np.ndarray, place: np.ndarray, offset: int, ground: int,
+            tally: np.ndarray, softness: np.ndarray, place: np.ndarray, offset: int, ground: int, whole: bool,
             sides: np.ndarray, rows: np.ndarray, record: np.ndarray) -> None:
     """One world's manifolds in lanes, wave by wave (``order``, ``tally`` from ``wavefronts``), with all a
     visit reads that does not change within the step, found once: wave ``v``'s manifolds in consecutive lanes
@@ -84,35 +84,40 @@ def lay_out(x: np.ndarray, y: np.ndarray, inv_mass: np.ndarray, inv_inertia: np.
     set of blocks share no body and a wave's blocks may hold manifolds of several. The arithmetic of ``contacts.prepare`` and ``substep.base_separations``; softness row 1
     where a side is static (the ground or a static box); impulses as ``recall`` left them in the table. A
     missing second point has zeros; lanes without a manifold are ``empty_lanes``' and the effective masses
-    ``effective_masses``', once the blocks are full."""
+    ``effective_masses``', once the blocks are full. Not ``whole``: the blocks hold this layout of the same
+    manifolds from the last step (the same pairs in the same lanes), so what depends on the pairs alone
+    (bodies, masses, friction, softness, table rows), which no pass writes, is there already; only what
+    the points' positions and impulses give is written."""
     none = np.uint64(ground)
     begin = 0
     for v in range(waves):
         for jj in range(begin, tally[v]):
             slot = np.uint64(place[v] + (jj - begin))
-            rows[np.uint64(2) * slot], rows[np.uint64(2) * slot + np.uint64(1)] = NONE, NONE
             k0, k1 = first[order[jj]], first[order[jj] + 1]
             a, b = ids[k0, A], ids[k0, B]
-            imb, iib = inv_mass[b], inv_inertia[b]
-            ima, iia = (inv_mass[a], inv_inertia[a]) if a >= 0 else (0.0, 0.0)
-            soft = 1 if a < 0 or ima == 0.0 or imb == 0.0 else 0
-            sides[slot, 0] = np.uint64(offset + a) if a >= 0 else none
-            sides[slot, 1] = np.uint64(offset + b)
             at = (slot // np.uint64(LANES)) * np.uint64(BLOCK) + slot % np.uint64(LANES)
-            record[at + R_IMA], record[at + R_IIA] = ima, iia
-            record[at + R_IMB], record[at + R_IIB] = imb, iib
-            record[at + R_MU] = np.sqrt(friction[a] * friction[b]) if a >= 0 else friction[b]
-            record[at + R_BIAS] = softness[soft, 0]
-            record[at + R_SCALE] = softness[soft, 1]
-            record[at + R_LET_GO] = softness[soft, 2]
-            record[at + R_MOVES_A] = 1.0 if a >= 0 else 0.0
-            record[at + R_TWO] = 1.0 if k1 - k0 > 1 else 0.0
+            if whole:
+                rows[np.uint64(2) * slot], rows[np.uint64(2) * slot + np.uint64(1)] = NONE, NONE
+                imb, iib = inv_mass[b], inv_inertia[b]
+                ima, iia = (inv_mass[a], inv_inertia[a]) if a >= 0 else (0.0, 0.0)
+                soft = 1 if a < 0 or ima == 0.0 or imb == 0.0 else 0
+                sides[slot, 0] = np.uint64(offset + a) if a >= 0 else none
+                sides[slot, 1] = np.uint64(offset + b)
+                record[at + R_IMA], record[at + R_IIA] = ima, iia
+                record[at + R_IMB], record[at + R_IIB] = imb, iib
+                record[at + R_MU] = np.sqrt(friction[a] * friction[b]) if a >= 0 else friction[b]
+                record[at + R_BIAS] = softness[soft, 0]
+                record[at + R_SCALE] = softness[soft, 1]
+                record[at + R_LET_GO] = softness[soft, 2]
+                record[at + R_MOVES_A] = 1.0 if a >= 0 else 0.0
+                record[at + R_TWO] = 1.0 if k1 - k0 > 1 else 0.0
+                for q in range(k1 - k0):
+                    rows[np.uint64(2) * slot + np.uint64(q)] = np.uint64(k0 + q)
             if k1 - k0 == 1:  # no second point: zeros, which the passes compute with and then drop
                 for f in range(R_NX, R_NX + SECOND, np.uint64(LANES)):
                     record[at + SECOND + f] = 0.0
             for q in range(k1 - k0):
                 k = k0 + q
-                rows[np.uint64(2) * slot + np.uint64(q)] = np.uint64(k)
                 nx, ny = table[k, NX], table[k, NY]
                 px, py = table[k, PX], table[k, PY]
                 rbx, rby = px - x[b], py - y[b]
