@@ -57,11 +57,11 @@ from stackx.solvers.planar.applied import clear_applied
 from stackx.solvers.planar.base import PlanarMemorySolver, StepImpulses
 from stackx.solvers.planar.kept import Kept, keep, take_back
 from stackx.solvers.planar.contacts import (COLUMNS, PN, PT, find_contacts_near, near_workspace, observe_contacts,
-                                            recall, remember, same_pairs)
+                                            recall, same_pairs)
 from stackx.solvers.planar.wavefront import manifold_starts, wavefronts
 from stackx.solvers.planar.wide import (BODY_COLUMNS, COS, D_X, D_Y, LANES, SIN, V_W, V_X, V_Y,
-                                        add_applied, block_workspace, effective_masses, empty_lanes, give_back,
-                                        lay_out, place_waves, soft_pass, warm_start)
+                                        add_applied, block_workspace, effective_masses, empty_lanes,
+                                        lay_out, place_waves, remember_laid, soft_pass, warm_start)
 from stackx.solvers.column.soft_step import STATIC_HERTZ, SoftStepParams, soft
 
 
@@ -277,8 +277,8 @@ def step_rows(lo: int, hi: int, x: np.ndarray, y: np.ndarray, angle: np.ndarray,
         for r in range(worlds):
             b = lo + r
             store_velocities(bodies[r * n:], vx[b], vy[b], w[b])
-            give_back(table_of[r], rows, record, place[r], tally[r], waves[r])
-            held[b] = remember(ids_of[r], table_of[r], count[r], keys[b], carried[b])
+            held[b] = remember_laid(ids_of[r], count[r], rows, record, place[r], tally[r], waves[r], keys[b],
+                                    carried[b])
             # where the step ended: the contacts of its monitors and of the next step (``observed_contacts``)
             ids_of[r], table_of[r], count[r], near_of[r] = find_contacts_near(
                 x[b], y[b], angle[b], hx[b], hy[b], inv_mass[b], speculative[b], near_of[r], fat_of[r], ids_of[r],

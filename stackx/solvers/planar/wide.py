@@ -37,7 +37,7 @@ from __future__ import annotations
 import numpy as np
 
 from stackx.kernel import inlined, kernel, leaf
-from stackx.solvers.planar.contacts import A, B, DEPTH, NX, NY, PN, PT, PX, PY, effective_mass
+from stackx.solvers.planar.contacts import A, B, DEPTH, FEATURE, NX, NY, PN, PT, PX, PY, effective_mass
 
 LANES = 4  # manifolds a block solves side by side
 
@@ -161,20 +161,25 @@ def effective_masses(record: np.ndarray, blocks: np.uint64) -> None:
 
 
 @leaf
-def give_back(table: np.ndarray, rows: np.ndarray, record: np.ndarray, place: np.ndarray, tally: np.ndarray,
-              waves: int) -> None:
-    """Each point of one world laid out at ``place`` (``lay_out``): its accumulated impulses back to its row of
-    the table, where ``remember`` keeps them."""
+def remember_laid(ids: np.ndarray, count: int, rows: np.ndarray, record: np.ndarray, place: np.ndarray,
+                  tally: np.ndarray, waves: int, keys: np.ndarray, carried: np.ndarray) -> int:
+    """``contacts.remember`` for one world laid out at ``place`` (``lay_out``), the impulses read where the
+    passes left them: each of the first ``count`` points' key, and its accumulated impulses from its lane,
+    kept for the next step (as many as the memory holds); returns how many."""
+    held = min(count, keys.shape[0])
+    for k in range(held):
+        keys[k, 0], keys[k, 1], keys[k, 2] = ids[k, A], ids[k, B], ids[k, FEATURE]
     begin = 0
     for v in range(waves):
         for lane in range(place[v], place[v] + tally[v] - begin):
             for q in range(2):
                 slot = np.uint64(2 * lane + q)
                 k = rows[slot]
-                if k != NONE:
+                if k < np.uint64(held):
                     at = point_at(slot)
-                    table[k, PN], table[k, PT] = record[at + R_PN], record[at + R_PT]
+                    carried[k, 0], carried[k, 1] = record[at + R_PN], record[at + R_PT]
         begin = tally[v]
+    return held
 
 
 @leaf
