@@ -26,6 +26,16 @@ solved four at a time in the lanes of vector registers, as Box2D v3 solves a gra
 point's separation is measured once per position of the boxes: the relax pass's serves the next substep's
 solve. The contacts found where a call's last step ends start the next call (``kept``).
 
+A batch steps up to ``GROUP`` consecutive rows of the same substep, substeps, relax and push-out together
+(``step_rows``): each row finds, recalls and orders its own contacts, and one layout holds every row's
+manifolds, wave ``v`` of all of them side by side in the blocks of the layout's wave ``v``, each row's bodies
+in rows of their own. No manifold of one row shares a body with another row's, so each body meets its
+manifolds in its own row's order and every number is the row's alone; but a pass over one pyramid waits on
+its chain of 57 waves, and over four it keeps four chains' visits in flight (on a 20-row pyramid the passes
+cost about a quarter less a row). While a row's points are between the same bodies as the last step's (a
+pile at rest), its wave order is kept, and while every row of a group keeps its pairs the layout writes
+only what the points' positions and impulses give.
+
 Restitution is 0. With ``w = 2 pi hertz``, ``z`` the damping ratio and ``h`` the substep the soft
 coefficients are Box2D v3's (``stackx.solvers.column.soft_step.soft``, shared with the column): the separating
 speed asked per metre of overlap ``w / (2z + h w)``, capped at ``push_out``, the share of the full impulse a
@@ -87,11 +97,12 @@ class PlanarSoftStepParams(SoftStepParams):
 @kernel
 def pass_workspace(room: int, worlds: int) -> tuple[np.ndarray, ...]:
     """Room for the layout of ``worlds`` worlds of at most ``room`` points each: ``(first, order, wave, tally,
-    place)``, one row a world (``wavefront``'s scratch and ``wide.place_waves``' lanes), and ``(ends,
-    used)``, the layout's (``wide.place_waves``)."""
+    place, slots)``, one row a world (``wavefront``'s scratch, ``wide.place_waves``' lanes and ``wide.lay_out``'s
+    point slots), and ``(ends, used)``, the layout's (``wide.place_waves``)."""
     return (np.empty((worlds, room + 1), np.int64), np.empty((worlds, room), np.int64),
             np.empty((worlds, room), np.int64), np.empty((worlds, room + 1), np.int64),
-            np.empty((worlds, room + 1), np.int64), np.empty(room + 1, np.uint64), np.empty(room + 1, np.int64))
+            np.empty((worlds, room + 1), np.int64), np.empty((worlds, room), np.uint64),
+            np.empty(room + 1, np.uint64), np.empty(room + 1, np.int64))
 
 
 @leaf
@@ -198,10 +209,10 @@ def step_rows(lo: int, hi: int, x: np.ndarray, y: np.ndarray, angle: np.ndarray,
     count = np.empty(worlds, np.int64)
     waves = np.empty(worlds, np.int64)
     room = keys.shape[1]
-    first, order, wave, tally, place, ends, used = pass_workspace(room, worlds)
+    first, order, wave, tally, place, slots, ends, used = pass_workspace(room, worlds)
     ordered = np.full(worlds, -1, np.int64)  # per row: the points its wave order is for (-1: none yet)
     latest = np.empty(n, np.int64)
-    record, sides, rows = block_workspace(1)  # grown to the step's blocks at its first lay-out
+    record, sides = block_workspace(1)  # grown to the step's blocks at its first lay-out
     start = np.empty((worlds * n, 3))  # where each body was when the step began
     bodies = np.empty((worlds * n + 1, BODY_COLUMNS))  # row r's bodies from r n on, the ground's last
     ground = worlds * n
@@ -223,7 +234,7 @@ def step_rows(lo: int, hi: int, x: np.ndarray, y: np.ndarray, angle: np.ndarray,
         for r in range(worlds):
             room = max(room, ids_of[r].shape[0])
         if order.shape[1] < room:
-            first, order, wave, tally, place, ends, used = pass_workspace(room, worlds)
+            first, order, wave, tally, place, slots, ends, used = pass_workspace(room, worlds)
             ordered[:] = -1
         for r in range(worlds):
             b, ids, table = lo + r, ids_of[r], table_of[r]
@@ -241,16 +252,16 @@ def step_rows(lo: int, hi: int, x: np.ndarray, y: np.ndarray, angle: np.ndarray,
             most = max(most, waves[r])
         blocks = place_waves(tally, waves, most, place, used, ends)
         if sides.shape[0] < blocks * LANES:
-            record, sides, rows = block_workspace(blocks + blocks // 2)
+            record, sides = block_workspace(blocks + blocks // 2)
             laid = False
         for r in range(worlds):  # the same manifolds in the same lanes: what depends on the pairs alone is there
             b = lo + r
             lay_out(x[b], y[b], inv_mass[b], inv_inertia[b], friction[b], ids_of[r], table_of[r], first[r],
                     order[r], waves[r], tally[r], softness[r], place[r], r * n, ground, not (laid and kept_pairs),
-                    sides, rows, record)
+                    sides, slots[r], record)
         laid = True
         for v in range(most):
-            empty_lanes(record, sides, rows, used[v], ends[v] * LANES, ground)
+            empty_lanes(record, sides, used[v], ends[v] * LANES, ground)
         effective_masses(record, np.uint64(blocks))
         for r in range(worlds):
             b = lo + r
@@ -273,12 +284,11 @@ def step_rows(lo: int, hi: int, x: np.ndarray, y: np.ndarray, angle: np.ndarray,
                 soft_pass(bodies, sides, record, most, ends, h, False, push_out[lo], True)
             if watched:
                 for r in range(worlds):
-                    add_applied(rows, record, place[r], tally[r], waves[r], applied[lo + r])
+                    add_applied(slots[r], count[r], record, applied[lo + r])
         for r in range(worlds):
             b = lo + r
             store_velocities(bodies[r * n:], vx[b], vy[b], w[b])
-            held[b] = remember_laid(ids_of[r], count[r], rows, record, place[r], tally[r], waves[r], keys[b],
-                                    carried[b])
+            held[b] = remember_laid(ids_of[r], count[r], slots[r], record, keys[b], carried[b])
             # where the step ended: the contacts of its monitors and of the next step (``observed_contacts``)
             ids_of[r], table_of[r], count[r], near_of[r] = find_contacts_near(
                 x[b], y[b], angle[b], hx[b], hy[b], inv_mass[b], speculative[b], near_of[r], fat_of[r], ids_of[r],

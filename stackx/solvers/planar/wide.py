@@ -56,7 +56,6 @@ BLOCK = FIELDS * LANES
 SECOND = np.uint64(12 * LANES)
 (R_VAX, R_VAY, R_WA, R_VBX, R_VBY, R_WB, R_DXA, R_DYA, R_CA, R_SA, R_DXB, R_DYB, R_CB, R_SB) = (
     np.uint64(f * LANES) for f in range(34, FIELDS))
-NONE = np.uint64(2 ** 62)  # the table row of a point slot that holds no point
 
 # the bodies as the passes read them, one row each and the ground's last: velocities and the motion since the
 # step began (``substep.moved_body``: dx, dy, cosine and sine of the turn), padded to 64 bytes, so a body a
@@ -66,27 +65,27 @@ BODY_COLUMNS = 8
 
 
 @kernel
-def block_workspace(blocks: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Room for ``blocks`` blocks: ``(record, sides, rows)``: the records, each lane's two bodies, and each
-    lane's two points' table rows (``NONE`` where there is no point)."""
-    return np.empty(blocks * BLOCK), np.empty((blocks * LANES, 2), np.uint64), np.empty(blocks * LANES * 2, np.uint64)
+def block_workspace(blocks: int) -> tuple[np.ndarray, np.ndarray]:
+    """Room for ``blocks`` blocks: ``(record, sides)``: the records and each lane's two bodies."""
+    return np.empty(blocks * BLOCK), np.empty((blocks * LANES, 2), np.uint64)
 
 
 @leaf
 def lay_out(x: np.ndarray, y: np.ndarray, inv_mass: np.ndarray, inv_inertia: np.ndarray, friction: np.ndarray,
             ids: np.ndarray, table: np.ndarray, first: np.ndarray, order: np.ndarray, waves: int,
             tally: np.ndarray, softness: np.ndarray, place: np.ndarray, offset: int, ground: int, whole: bool,
-            sides: np.ndarray, rows: np.ndarray, record: np.ndarray) -> None:
+            sides: np.ndarray, slots: np.ndarray, record: np.ndarray) -> None:
     """One world's manifolds in lanes, wave by wave (``order``, ``tally`` from ``wavefronts``), with all a
     visit reads that does not change within the step, found once: wave ``v``'s manifolds in consecutive lanes
     from lane ``place[v]`` (lane ``l`` is lane ``l % LANES`` of block ``l // LANES``). The world's bodies are
     the passes' body rows ``offset`` on and the ground is row ``ground``, so several worlds laid out in one
-    set of blocks share no body and a wave's blocks may hold manifolds of several. The arithmetic of ``contacts.prepare`` and ``substep.base_separations``; softness row 1
+    set of blocks share no body and a wave's blocks may hold manifolds of several; ``slots[k]``: the point
+    slot (``point_at``) of the world's point ``k``. The arithmetic of ``contacts.prepare`` and ``substep.base_separations``; softness row 1
     where a side is static (the ground or a static box); impulses as ``recall`` left them in the table. A
     missing second point has zeros; lanes without a manifold are ``empty_lanes``' and the effective masses
     ``effective_masses``', once the blocks are full. Not ``whole``: the blocks hold this layout of the same
     manifolds from the last step (the same pairs in the same lanes), so what depends on the pairs alone
-    (bodies, masses, friction, softness, table rows), which no pass writes, is there already; only what
+    (bodies, masses, friction, softness, point slots), which no pass writes, is there already; only what
     the points' positions and impulses give is written."""
     none = np.uint64(ground)
     begin = 0
@@ -97,7 +96,6 @@ def lay_out(x: np.ndarray, y: np.ndarray, inv_mass: np.ndarray, inv_inertia: np.
             a, b = ids[k0, A], ids[k0, B]
             at = (slot // np.uint64(LANES)) * np.uint64(BLOCK) + slot % np.uint64(LANES)
             if whole:
-                rows[np.uint64(2) * slot], rows[np.uint64(2) * slot + np.uint64(1)] = NONE, NONE
                 imb, iib = inv_mass[b], inv_inertia[b]
                 ima, iia = (inv_mass[a], inv_inertia[a]) if a >= 0 else (0.0, 0.0)
                 soft = 1 if a < 0 or ima == 0.0 or imb == 0.0 else 0
@@ -112,7 +110,7 @@ def lay_out(x: np.ndarray, y: np.ndarray, inv_mass: np.ndarray, inv_inertia: np.
                 record[at + R_MOVES_A] = 1.0 if a >= 0 else 0.0
                 record[at + R_TWO] = 1.0 if k1 - k0 > 1 else 0.0
                 for q in range(k1 - k0):
-                    rows[np.uint64(2) * slot + np.uint64(q)] = np.uint64(k0 + q)
+                    slots[k0 + q] = np.uint64(2) * slot + np.uint64(q)
             if k1 - k0 == 1:  # no second point: zeros, which the passes compute with and then drop
                 for f in range(R_NX, R_NX + SECOND, np.uint64(LANES)):
                     record[at + SECOND + f] = 0.0
@@ -132,12 +130,11 @@ def lay_out(x: np.ndarray, y: np.ndarray, inv_mass: np.ndarray, inv_inertia: np.
 
 
 @leaf
-def empty_lanes(record: np.ndarray, sides: np.ndarray, rows: np.ndarray, begin: int, end: int, ground: int) -> None:
+def empty_lanes(record: np.ndarray, sides: np.ndarray, begin: int, end: int, ground: int) -> None:
     """Lanes ``begin`` to ``end`` hold no manifold: the ground on both sides, no points, zeros, which the passes
     compute with and nothing reads back."""
     for lane in range(np.uint64(begin), np.uint64(end)):
         sides[lane, 0], sides[lane, 1] = np.uint64(ground), np.uint64(ground)
-        rows[np.uint64(2) * lane], rows[np.uint64(2) * lane + np.uint64(1)] = NONE, NONE
         at = (lane // np.uint64(LANES)) * np.uint64(BLOCK) + lane % np.uint64(LANES)
         for f in range(np.uint64(0), R_VAX, np.uint64(LANES)):
             record[at + f] = 0.0
@@ -161,24 +158,16 @@ def effective_masses(record: np.ndarray, blocks: np.uint64) -> None:
 
 
 @leaf
-def remember_laid(ids: np.ndarray, count: int, rows: np.ndarray, record: np.ndarray, place: np.ndarray,
-                  tally: np.ndarray, waves: int, keys: np.ndarray, carried: np.ndarray) -> int:
-    """``contacts.remember`` for one world laid out at ``place`` (``lay_out``), the impulses read where the
-    passes left them: each of the first ``count`` points' key, and its accumulated impulses from its lane,
-    kept for the next step (as many as the memory holds); returns how many."""
+def remember_laid(ids: np.ndarray, count: int, slots: np.ndarray, record: np.ndarray, keys: np.ndarray,
+                  carried: np.ndarray) -> int:
+    """``contacts.remember`` for one world laid out with point slots ``slots`` (``lay_out``), the impulses read
+    where the passes left them: each of the first ``count`` points' key and accumulated impulses kept for the
+    next step (as many as the memory holds); returns how many."""
     held = min(count, keys.shape[0])
     for k in range(held):
         keys[k, 0], keys[k, 1], keys[k, 2] = ids[k, A], ids[k, B], ids[k, FEATURE]
-    begin = 0
-    for v in range(waves):
-        for lane in range(place[v], place[v] + tally[v] - begin):
-            for q in range(2):
-                slot = np.uint64(2 * lane + q)
-                k = rows[slot]
-                if k < np.uint64(held):
-                    at = point_at(slot)
-                    carried[k, 0], carried[k, 1] = record[at + R_PN], record[at + R_PT]
-        begin = tally[v]
+        at = point_at(slots[k])
+        carried[k, 0], carried[k, 1] = record[at + R_PN], record[at + R_PT]
     return held
 
 
@@ -192,22 +181,14 @@ def point_at(slot: np.uint64) -> np.uint64:
 
 
 @leaf
-def add_applied(rows: np.ndarray, record: np.ndarray, place: np.ndarray, tally: np.ndarray, waves: int,
-                applied: np.ndarray) -> None:
-    """``applied.add_applied`` on the blocks, for the points of one world laid out at ``place``: the end of a
-    substep adds each point's accumulated impulses, which the substep applied, to ``applied`` at the point's
-    table row."""
-    begin = 0
-    for v in range(waves):
-        for lane in range(place[v], place[v] + tally[v] - begin):
-            for q in range(2):
-                slot = np.uint64(2 * lane + q)
-                k = rows[slot]
-                if k < applied.shape[0]:
-                    at = point_at(slot)
-                    applied[k, 0] += record[at + R_PN]
-                    applied[k, 1] += record[at + R_PT]
-        begin = tally[v]
+def add_applied(slots: np.ndarray, count: int, record: np.ndarray, applied: np.ndarray) -> None:
+    """``applied.add_applied`` for one world's ``count`` points laid out with point slots ``slots``: the end of
+    a substep adds each point's accumulated impulses, which the substep applied, to ``applied`` at the
+    point's table row."""
+    for k in range(min(count, applied.shape[0])):
+        at = point_at(slots[k])
+        applied[k, 0] += record[at + R_PN]
+        applied[k, 1] += record[at + R_PT]
 
 
 @leaf
