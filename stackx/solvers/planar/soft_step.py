@@ -162,17 +162,32 @@ def soft_step_advance(x: np.ndarray, y: np.ndarray, angle: np.ndarray, vx: np.nd
                       held: np.ndarray, applied: np.ndarray, kept_ids: np.ndarray, kept_points: np.ndarray,
                       kept_count: np.ndarray, kept_at: np.ndarray, kept_near: np.ndarray, kept_fat: np.ndarray,
                       last: np.ndarray, peak: np.ndarray, reach: np.ndarray, touched: np.ndarray,
-                      launch: np.ndarray, groups: np.ndarray, steps: int) -> None:
+                      launch: np.ndarray, groups: np.ndarray, chunks: np.ndarray, steps: int) -> None:
     """``steps`` steps of every batch row, in place, the rows ``groups[i]`` to ``groups[i + 1]`` stepped
-    together (``step_rows``); ``keys``, ``carried`` and ``held`` carry each row's points and impulses from
-    one step (and one call) to the next; ``applied`` gets what each step applied
-    (``stackx.solvers.planar.applied``) when it has room for them (``watch_impulses``), else nothing; the
-    ``kept_`` arrays (``kept.Kept``) carry the contacts found where a call ends to the next call."""
-    for i in prange(groups.shape[0] - 1):
-        step_rows(groups[i], groups[i + 1], x, y, angle, vx, vy, w, inv_mass, inv_inertia, hx, hy, friction, g, dt,
-                  substeps, hertz, damping_ratio, push_out, relax, warm, speculative, keys, carried, held, applied,
-                  kept_ids, kept_points, kept_count, kept_at, kept_near, kept_fat, last, peak, reach, touched,
-                  launch, steps)
+    together (``step_rows``), the groups ``chunks[t]`` to ``chunks[t + 1]`` one after the other on one thread;
+    ``keys``, ``carried`` and ``held`` carry each row's points and impulses from one step (and one call) to
+    the next; ``applied`` gets what each step applied (``stackx.solvers.planar.applied``) when it has room
+    for them (``watch_impulses``), else nothing; the ``kept_`` arrays (``kept.Kept``) carry the contacts
+    found where a call ends to the next call.
+
+    A chunk's groups share one set of contact tables and blocks, made once: memory taken afresh for every
+    group would be handed back to the system and faulted in again page by page, which on 64 rows of a
+    20-row pyramid cost about a tenth of a step."""
+    for t in prange(chunks.shape[0] - 1):
+        most = 1
+        for i in range(chunks[t], chunks[t + 1]):
+            most = max(most, groups[i + 1] - groups[i])
+        # the contact tables unfilled (``contact_workspace`` zeroes them): a step reads only what ``collide``
+        # and the step itself write, and zeroing a pile's room costs a call more than its bookkeeping
+        ids_of = [np.empty((keys.shape[1], 3), np.int64) for _ in range(most)]
+        table_of = [np.empty((keys.shape[1], COLUMNS)) for _ in range(most)]
+        record, sides = block_workspace(1)  # grown to the steps' blocks at their first lay-out
+        for i in range(chunks[t], chunks[t + 1]):
+            record, sides = step_rows(groups[i], groups[i + 1], x, y, angle, vx, vy, w, inv_mass, inv_inertia, hx,
+                                      hy, friction, g, dt, substeps, hertz, damping_ratio, push_out, relax, warm,
+                                      speculative, keys, carried, held, applied, kept_ids, kept_points, kept_count,
+                                      kept_at, kept_near, kept_fat, last, peak, reach, touched, launch, ids_of,
+                                      table_of, record, sides, steps)
 
 
 @kernel
@@ -183,13 +198,17 @@ def step_rows(lo: int, hi: int, x: np.ndarray, y: np.ndarray, angle: np.ndarray,
               speculative: np.ndarray, keys: np.ndarray, carried: np.ndarray, held: np.ndarray,
               applied: np.ndarray, kept_ids: np.ndarray, kept_points: np.ndarray, kept_count: np.ndarray,
               kept_at: np.ndarray, kept_near: np.ndarray, kept_fat: np.ndarray, last: np.ndarray, peak: np.ndarray,
-              reach: np.ndarray, touched: np.ndarray, launch: np.ndarray, steps: int) -> None:
+              reach: np.ndarray, touched: np.ndarray, launch: np.ndarray, ids_of: list[np.ndarray],
+              table_of: list[np.ndarray], record: np.ndarray, sides: np.ndarray,
+              steps: int) -> tuple[np.ndarray, np.ndarray]:
     """``steps`` steps of rows ``lo`` to ``hi``, which share their substep, number of substeps, relax and
     push-out (``row_groups``): each row finds, recalls and orders its contacts alone, and the passes run over
     one layout of all the rows' manifolds, the rows' bodies one after the other in the bodies' rows
     (``wide.place_waves``). A row's manifolds and bodies meet no other row's, so every number is the one
     stepping the row alone gives; a pass over several worlds keeps more independent visits in flight (a
-    pass over one pyramid waits on its chain of waves)."""
+    pass over one pyramid waits on its chain of waves). Row ``r`` of the group uses the contact table
+    ``ids_of[r]``, ``table_of[r]`` (replaced by a larger one when its points outgrow it), and the blocks are
+    ``record`` and ``sides`` (``wide.block_workspace``), grown when too small; returns the blocks."""
     worlds = hi - lo
     n = x.shape[1]
     h = dt[lo] / substeps[lo]
@@ -200,19 +219,16 @@ def step_rows(lo: int, hi: int, x: np.ndarray, y: np.ndarray, angle: np.ndarray,
         softness[r, 0, 0], softness[r, 0, 1], softness[r, 0, 2] = soft(contact_hertz, damping_ratio[b], h)
         softness[r, 1, 0], softness[r, 1, 1], softness[r, 1, 2] = soft(STATIC_HERTZ * contact_hertz,
                                                                        damping_ratio[b], h)
-    # the contact tables unfilled (``contact_workspace`` zeroes them): a step reads only what ``collide`` and
-    # the step itself write, and zeroing a pile's room costs a call more than its bookkeeping
-    ids_of = [np.empty((keys.shape[1], 3), np.int64) for _ in range(worlds)]
-    table_of = [np.empty((keys.shape[1], COLUMNS)) for _ in range(worlds)]
     near_of = [np.empty(0, np.int64) for _ in range(worlds)]  # the broad phase's candidates, kept while the
     fat_of = [np.empty((0, 4)) for _ in range(worlds)]  # boxes stay near (``near_workspace``, below)
     count = np.empty(worlds, np.int64)
     waves = np.empty(worlds, np.int64)
-    room = keys.shape[1]
+    room = 0
+    for r in range(worlds):
+        room = max(room, ids_of[r].shape[0])
     first, order, wave, tally, place, slots, ends, used = pass_workspace(room, worlds)
     ordered = np.full(worlds, -1, np.int64)  # per row: the points its wave order is for (-1: none yet)
     latest = np.empty(n, np.int64)
-    record, sides = block_workspace(1)  # grown to the step's blocks at its first lay-out
     start = np.empty((worlds * n, 3))  # where each body was when the step began
     bodies = np.empty((worlds * n + 1, BODY_COLUMNS))  # row r's bodies from r n on, the ground's last
     ground = worlds * n
@@ -300,6 +316,7 @@ def step_rows(lo: int, hi: int, x: np.ndarray, y: np.ndarray, angle: np.ndarray,
         kept_count[b] = keep(x[b], y[b], angle[b], hx[b], hy[b], inv_mass[b], ids_of[r], table_of[r], count[r],
                              near_of[r], fat_of[r], kept_ids[b], kept_points[b], kept_at[b], kept_near[b],
                              kept_fat[b])
+    return record, sides
 
 
 @solvers.register("planar-soft-step")
@@ -346,10 +363,13 @@ class PlanarSoftStep(PlanarMemorySolver):
             self.applied = np.zeros((keys.shape[0], room, 2))
         if self.kept is None or not self.kept.fits(s.batch, s.bodies, keys.shape[1]):
             self.kept = Kept(s.batch, s.bodies, keys.shape[1])
+        groups = self.row_groups(s.x)
+        threads = spread(s.x)  # the groups split evenly over the threads, as numba splits a prange
+        chunks = (np.arange(threads + 1) * (len(groups) - 1)) // threads
         soft_step_advance(s.x, s.y, s.angle, s.vx, s.vy, s.w, s.inv_mass, s.inv_inertia, s.hx, s.hy, s.friction,
                           self.gravity, self.dt, self.substeps, self.hertz, self.damping_ratio, self.push_out,
                           self.relax, self.warm, self.speculative, keys, carried, held, self.applied,
-                          *self.kept.arrays(), *s.monitors(), self.row_groups(s.x), steps)
+                          *self.kept.arrays(), *s.monitors(), groups, chunks, steps)
 
     def row_groups(self, x: np.ndarray) -> np.ndarray:
         """Which rows ``soft_step_advance`` steps together: runs of consecutive rows, at most ``GROUP`` and no
