@@ -333,19 +333,22 @@ def set_targets(table: np.ndarray, count: int, dt: float) -> None:
 def recall(ids: np.ndarray, table: np.ndarray, count: int, keys: np.ndarray, carried: np.ndarray,
            held: int) -> None:
     """Warm start values: each point's impulses from the last step's point with the same ``(A, B, FEATURE)``,
-    0 for a new point. ``collide`` lists points by ``(A, B)`` in increasing order (the ground's first), and so
-    does the memory, so one walk down both lists finds every match."""
+    0 for a new point (written: the table's impulses need no clearing first). ``collide`` lists points by
+    ``(A, B)`` in increasing order (the ground's first), and so does the memory, so one walk down both lists
+    finds every match."""
     j = 0
     for k in range(count):
         a, b, f = ids[k, A], ids[k, B], ids[k, FEATURE]
         while j < held and (keys[j, 0] < a or (keys[j, 0] == a and keys[j, 1] < b)):
             j += 1
         i = j
+        pn, pt = 0.0, 0.0
         while i < held and keys[i, 0] == a and keys[i, 1] == b:
             if keys[i, 2] == f:
-                table[k, PN], table[k, PT] = carried[i, 0], carried[i, 1]
+                pn, pt = carried[i, 0], carried[i, 1]
                 break
             i += 1
+        table[k, PN], table[k, PT] = pn, pt
 
 
 @leaf

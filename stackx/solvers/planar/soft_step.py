@@ -257,10 +257,11 @@ def step_rows(lo: int, hi: int, x: np.ndarray, y: np.ndarray, angle: np.ndarray,
             # the last step's pairs again (a pile at rest): the same manifolds, so the wave order found for them
             same = same_pairs(ids, count[r], keys[b], held[b]) and ordered[r] == count[r]
             kept_pairs = kept_pairs and same
-            table[:count[r], PN] = 0.0
-            table[:count[r], PT] = 0.0
             if warm[b]:
                 recall(ids, table, count[r], keys[b], carried[b], held[b])
+            else:
+                table[:count[r], PN] = 0.0
+                table[:count[r], PT] = 0.0
             if not same:
                 m = manifold_starts(ids, count[r], first[r])
                 waves[r] = wavefronts(ids, first[r], m, latest, wave[r], tally[r], order[r])
