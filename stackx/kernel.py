@@ -181,13 +181,10 @@ class Kernel(Generic[P, R]):
         thread it uses, which costs microseconds on an idle machine and milliseconds on a busy one. Inside a
         ``threads(n)`` block a batch uses at most ``n`` threads."""
         if self.parallel and args:
-            import numba
-
-            batch = args[0]
-            rows, size = (batch.shape[0], batch.size) if getattr(batch, "ndim", 0) else (1, 1)
-            most = getattr(_state, "threads", None) or numba.config.NUMBA_NUM_THREADS
-            threads = min(numba.config.NUMBA_NUM_THREADS, most, int(rows), int(size) // GRAIN)
+            threads = spread(args[0])
             if threads > 1:
+                import numba
+
                 build = self.build(parallel=True)  # before the threads start: it picks their layer
                 numba.set_num_threads(threads)
                 return build
@@ -231,6 +228,19 @@ class Kernel(Generic[P, R]):
                                   fn.__closure__)
         twin.__qualname__, twin.__doc__ = fn.__qualname__, fn.__doc__
         return twin  # type: ignore[return-value]
+
+
+def spread(batch: Any) -> int:
+    """The threads a compiled ``prange`` kernel called from this thread on ``batch`` (rows first) runs on: one
+    a row at most, ``GRAIN`` elements a thread at least, no more than numba has or a ``threads()`` block
+    allows; 1 when numba is not there."""
+    if not available():
+        return 1
+    import numba
+
+    rows, size = (batch.shape[0], batch.size) if getattr(batch, "ndim", 0) else (1, 1)
+    most = getattr(_state, "threads", None) or numba.config.NUMBA_NUM_THREADS
+    return max(1, min(numba.config.NUMBA_NUM_THREADS, most, int(rows), int(size) // GRAIN))
 
 
 def kernel(fn: Callable[P, R]) -> Kernel[P, R]:

@@ -135,13 +135,14 @@ def test_memory_finds_each_point_by_its_bodies_and_feature() -> None:
     drop = 1  # forget one point: it must come back as 0, the others unchanged
     keys = np.delete(keys, drop, axis=0)
     carried = np.delete(carried, drop, axis=0)
-    table[:count, PN] = table[:count, PT] = 0.0
+    table[:count, PN] = table[:count, PT] = np.nan  # whatever a table held before: recall writes every point
     recall(ids, table, count, keys, carried, held - 1)
     memory = {tuple(keys[i]): tuple(carried[i]) for i in range(held - 1)}
     for k in range(count):
         key = (ids[k, A], ids[k, B], ids[k, FEATURE])
         assert (table[k, PN], table[k, PT]) == memory.get(key, (0.0, 0.0))
     assert table[drop, PN] == 0.0 and table[0, PN] == 1.0
+    assert np.copysign(1.0, table[drop, PN]) == 1.0 and np.copysign(1.0, table[drop, PT]) == 1.0  # +0, as cleared
 
 
 def test_the_position_pass_measures_the_depth_where_the_box_has_turned_to() -> None:

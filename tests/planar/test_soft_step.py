@@ -122,3 +122,62 @@ def test_stiff_soft_contacts_hold_the_heavy_slab_off_centre() -> None:
     default = run_experiment(load(str(CONFIGS / "planar" / "heavy-slab.yaml"),
                                   ["outputs=[]", "solver={name: planar-soft-step}"])).runs[0].measures
     assert default["max_depth"] > 0.04  # at its defaults the light box's corners sink under the slab
+
+
+def test_rows_stepped_together_give_each_rows_numbers_alone() -> None:
+    """Rows that share their substeps run their passes as one layout (``step_rows``): seven different
+    tumbling piles, a row with other substeps between them (a group boundary), and four piles at rest
+    (a group whose pairs all stay from step to step, so its layout keeps what depends on the pairs alone),
+    stepped on one thread in calls of 1 and 5 steps with the applied impulses watched: every row's state,
+    memory and impulses, byte for byte, as the row stepped alone."""
+    from stackx.kernel import threads
+    from stackx.models.planar.state import PlanarState
+
+    def pile(seed: int) -> PlanarState:
+        if seed >= 8:  # at rest
+            return pyramid(5, mu=0.3 + 0.05 * seed, jitter=0.01 * (seed - 8), seed=seed)
+        state = pyramid(5, mu=0.3 + 0.05 * seed, jitter=0.2, seed=seed)
+        state.vx[0] = np.linspace(-0.8, 0.8, state.bodies) * (1 + seed % 3)
+        state.w[0, seed % state.bodies] = 2.0 - seed
+        state.y[0] += 0.015 * np.arange(state.bodies) * (seed % 2)  # some apart: landings, speculative points
+        return state
+
+    def step(seeds: list[int], substeps: list[int]) -> tuple[PlanarState, PlanarSoftStep, list[object]]:
+        state = PlanarState.concat([pile(seed) for seed in seeds])
+        solver = PlanarSoftStep([PlanarSoftStepParams(substeps=s) for s in substeps], np.full(len(seeds), -G),
+                                np.full(len(seeds), DT))
+        solver.watch_impulses()
+        with compiled(True), threads(1):
+            solver.advance(state, 1)
+            solver.advance(state, 5)
+        return state, solver, [solver.step_impulses(b) for b in range(len(seeds))]
+
+    seeds, substeps = list(range(12)), [4, 4, 4, 3] + [4] * 8
+    with threads(1):
+        groups = PlanarSoftStep([PlanarSoftStepParams(substeps=s) for s in substeps], np.full(12, -G),
+                                np.full(12, DT)).row_groups(np.zeros((12, 15)))
+    assert groups.tolist() == [0, 3, 4, 8, 12]  # rows of the same substeps together, at most four
+    resting = PlanarState.concat([pile(seed) for seed in seeds[8:]])
+    solver = PlanarSoftStep([PlanarSoftStepParams()] * 4, np.full(4, -G), np.full(4, DT))
+    kept, pairs = [], None
+    with compiled(True):
+        for _ in range(6):
+            solver.advance(resting, 1)
+            keys, _, held = solver.memory(resting)
+            now = [keys[b, :held[b], :2].copy() for b in range(4)]
+            if pairs is not None:
+                kept.append(all(a.shape == p.shape and (a == p).all() for a, p in zip(now, pairs)))
+            pairs = now
+    assert any(kept)  # steps on which every resting row keeps its pairs
+    together, solver, impulses = step(seeds, substeps)
+    for b, seed in enumerate(seeds):
+        alone, single, alone_impulses = step([seed], [substeps[b]])
+        for name in PlanarState.FIELDS:
+            assert getattr(together, name)[b].tobytes() == getattr(alone, name)[0].tobytes(), (b, name)
+        for mine, theirs in zip(solver.memory(together), single.memory(alone)):
+            assert mine[b].tobytes() == theirs[0].tobytes(), b
+        got, want = impulses[b], alone_impulses[0]
+        assert got is not None and want is not None
+        assert got.keys.tobytes() == want.keys.tobytes() and got.pn.tobytes() == want.pn.tobytes(), b
+        assert got.pt.tobytes() == want.pt.tobytes(), b
+    assert np.abs(together.w).max() > 0.1  # the piles still tumble: the comparison has something to see

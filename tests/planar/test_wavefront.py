@@ -227,3 +227,71 @@ def test_the_pass_in_blocks_of_lanes_gives_the_table_order_numbers_to_the_bit(pa
     for name in ("x", "y", "angle", "vx", "vy", "w"):
         assert getattr(state, name).tobytes() == getattr(expected, name).tobytes(), name
     assert np.abs(expected.w).max() > 0.1  # the boxes still turn and slide: the comparison has something to see
+
+
+def _landing_on_a_pile() -> PlanarState:
+    """A pyramid of 4 rows at rest (its pairs stay, its corners on the ground swap places in the list) and a
+    box falling onto it, which lands after some steps (new pairs) and settles."""
+    pile = pyramid(4, mu=0.6)
+    box = boxes([0.3], [5.2], [0.2], [(0.5, 0.4)], [1.0], [0.6])
+    return PlanarState(*(np.concatenate([getattr(s, f) for s in (pile, box)], axis=1) for f in PlanarState.BODY))
+
+
+def test_a_wave_order_kept_while_the_pairs_stay_gives_the_table_order_numbers_to_the_bit() -> None:
+    """The soft step keeps a step's wave order for the next while its points are between the same bodies in
+    the same order (``contacts.same_pairs``), and finds it again when they are not: over 40 steps in one call
+    of a pile at rest with a box landing on it, steps of both kinds happen (seen from the solver's memory in
+    calls of one step), and every number is the table-order transcription's, byte for byte."""
+    p = PlanarSoftStepParams(substeps=4)
+    single = _landing_on_a_pile()
+    solver = PlanarSoftStep([p], np.array([G]), np.array([DT]))
+    kept, pairs = [], None
+    with compiled(True):
+        for _ in range(40):
+            solver.advance(single, 1)
+            keys, _, held = solver.memory(single)
+            now = keys[0, :held[0], :2].copy()
+            if pairs is not None:
+                kept.append(now.shape == pairs.shape and bool((now == pairs).all()))
+            pairs = now
+    assert any(kept) and not all(kept)
+    expected = _landing_on_a_pile()
+    with compiled(False):
+        _table_order_steps(expected, p, 40)
+    state = _landing_on_a_pile()
+    with compiled(True):
+        PlanarSoftStep([p], np.array([G]), np.array([DT])).advance(state, 40)
+    for name in ("x", "y", "angle", "vx", "vy", "w"):
+        assert getattr(state, name).tobytes() == getattr(expected, name).tobytes(), name
+    assert getattr(single, "y").tobytes() == getattr(expected, "y").tobytes()
+
+
+@pytest.mark.parametrize("on", [False, True])
+def test_same_pairs_tells_points_between_the_same_bodies_in_the_same_order(on: bool) -> None:
+    """``same_pairs`` against the memory's keys: the same list, or one whose features differ (a box's corners
+    swapped), is the same pairs; another ``B`` or ``A`` at one point, one point more or fewer, or the points
+    in another order, is not."""
+    from stackx.solvers.planar.contacts import same_pairs
+
+    rng = np.random.default_rng(3)
+    keys = _random_contacts(rng, 12, 20)
+    held = keys.shape[0]
+    ids = np.concatenate([keys, np.zeros((4, 3), np.int64)])  # the table has room beyond its points
+    changed = []
+    for k, column, value in ((5, B, 99), (9, A, 7), (0, A, 3)):
+        other = ids.copy()
+        other[k, column] = value
+        changed.append((other, held))
+    j = int(np.flatnonzero((keys[:, :2] != keys[0, :2]).any(axis=1))[0])  # the first point of another pair
+    swapped = ids.copy()
+    swapped[[0, j]] = keys[[j, 0]]
+    features = ids.copy()
+    features[:held, 2] += 1
+    with compiled(on):
+        assert same_pairs(ids, held, keys, held)
+        assert same_pairs(features, held, keys, held)
+        for other, count in changed:
+            assert not same_pairs(other, count, keys, held)
+        assert not same_pairs(ids, held - 1, keys, held)
+        assert not same_pairs(ids, held, keys, held - 1)
+        assert not same_pairs(swapped, held, keys, held)

@@ -28,7 +28,8 @@ Functions, in the order a step uses them:
 - ``set_targets(...)``: the slowest normal velocity each point accepts: ``depth/dt`` (negative) for a point
   still apart, so it may close its gap within the step but not more, and 0 for one touching;
 - ``recall(...)`` / ``remember(...)``: warm start: the impulses of the last step's points found again by
-  ``(A, B, FEATURE)``, and the impulses of this step kept for the next;
+  ``(A, B, FEATURE)``, and the impulses of this step kept for the next; ``same_pairs`` tells a step whose
+  points are between the same bodies as the last step's, in the same order (its manifolds are the same);
 - ``warm_start(...)``: apply the carried impulses before the first iteration;
 - ``normal_visit``, ``block_normal``, ``friction_visit``: one point's normal total, the two normal totals of
   a two-point manifold solved together (Box2D 2.x's block solver), or one point's friction total, with
@@ -332,19 +333,36 @@ def set_targets(table: np.ndarray, count: int, dt: float) -> None:
 def recall(ids: np.ndarray, table: np.ndarray, count: int, keys: np.ndarray, carried: np.ndarray,
            held: int) -> None:
     """Warm start values: each point's impulses from the last step's point with the same ``(A, B, FEATURE)``,
-    0 for a new point. ``collide`` lists points by ``(A, B)`` in increasing order (the ground's first), and so
-    does the memory, so one walk down both lists finds every match."""
+    0 for a new point (written: the table's impulses need no clearing first). ``collide`` lists points by
+    ``(A, B)`` in increasing order (the ground's first), and so does the memory, so one walk down both lists
+    finds every match."""
     j = 0
     for k in range(count):
         a, b, f = ids[k, A], ids[k, B], ids[k, FEATURE]
         while j < held and (keys[j, 0] < a or (keys[j, 0] == a and keys[j, 1] < b)):
             j += 1
         i = j
+        pn, pt = 0.0, 0.0
         while i < held and keys[i, 0] == a and keys[i, 1] == b:
             if keys[i, 2] == f:
-                table[k, PN], table[k, PT] = carried[i, 0], carried[i, 1]
+                pn, pt = carried[i, 0], carried[i, 1]
                 break
             i += 1
+        table[k, PN], table[k, PT] = pn, pt
+
+
+@leaf
+def same_pairs(ids: np.ndarray, count: int, keys: np.ndarray, held: int) -> bool:
+    """Whether the table's ``count`` points are, one by one, between the same two bodies as the memory's
+    ``held`` (their features may differ): then the manifolds, and the order of visiting them that
+    ``wavefront`` finds from ``A`` and ``B`` alone, are the last step's. A pile at rest keeps its pairs step
+    after step, while a box's two corners on the ground may swap places in the list."""
+    if count != held:
+        return False
+    for k in range(count):
+        if ids[k, A] != keys[k, 0] or ids[k, B] != keys[k, 1]:
+            return False
+    return True
 
 
 @leaf

@@ -26,6 +26,16 @@ solved four at a time in the lanes of vector registers, as Box2D v3 solves a gra
 point's separation is measured once per position of the boxes: the relax pass's serves the next substep's
 solve. The contacts found where a call's last step ends start the next call (``kept``).
 
+A batch steps up to ``GROUP`` consecutive rows of the same substep, substeps, relax and push-out together
+(``step_rows``): each row finds, recalls and orders its own contacts, and one layout holds every row's
+manifolds, wave ``v`` of all of them side by side in the blocks of the layout's wave ``v``, each row's bodies
+in rows of their own. No manifold of one row shares a body with another row's, so each body meets its
+manifolds in its own row's order and every number is the row's alone; but a pass over one pyramid waits on
+its chain of 57 waves, and over four it keeps four chains' visits in flight (on a 20-row pyramid the passes
+cost about a quarter less a row). While a row's points are between the same bodies as the last step's (a
+pile at rest), its wave order is kept, and while every row of a group keeps its pairs the layout writes
+only what the points' positions and impulses give.
+
 Restitution is 0. With ``w = 2 pi hertz``, ``z`` the damping ratio and ``h`` the substep the soft
 coefficients are Box2D v3's (``stackx.solvers.column.soft_step.soft``, shared with the column): the separating
 speed asked per metre of overlap ``w / (2z + h w)``, capped at ``push_out``, the share of the full impulse a
@@ -50,22 +60,23 @@ from __future__ import annotations
 import numpy as np
 from pydantic import Field
 
-from stackx.kernel import kernel, leaf, prange
+from stackx.kernel import kernel, leaf, prange, spread
 from stackx.models.planar.state import PlanarState
 from stackx.registry import solvers
 from stackx.solvers.planar.applied import clear_applied
 from stackx.solvers.planar.base import PlanarMemorySolver, StepImpulses
 from stackx.solvers.planar.kept import Kept, keep, take_back
-from stackx.solvers.planar.contacts import (COLUMNS, PN, PT, find_contacts_near, near_workspace,
-                                            observe_contacts, recall, remember)
+from stackx.solvers.planar.contacts import (COLUMNS, PN, PT, find_contacts_near, near_workspace, observe_contacts,
+                                            recall, same_pairs)
 from stackx.solvers.planar.wavefront import manifold_starts, wavefronts
 from stackx.solvers.planar.wide import (BODY_COLUMNS, COS, D_X, D_Y, LANES, SIN, V_W, V_X, V_Y,
-                                        add_applied, block_workspace, blocks_needed, give_back, lay_out, soft_pass,
-                                        warm_start)
+                                        add_applied, block_workspace, effective_masses, empty_lanes,
+                                        lay_out, place_waves, remember_laid, soft_pass, warm_start)
 from stackx.solvers.column.soft_step import STATIC_HERTZ, SoftStepParams, soft
 
 
 SUBSTEP_HERTZ = 0.125  # the contact frequency is at most this share of the substep rate (Box2D v3.1.1 on)
+GROUP = 4  # rows whose passes run as one (``step_rows``): a pass over one pyramid waits on its chain of waves
 
 
 class PlanarSoftStepParams(SoftStepParams):
@@ -84,26 +95,32 @@ class PlanarSoftStepParams(SoftStepParams):
 
 
 @kernel
-def pass_workspace(room: int, bodies: int) -> tuple[np.ndarray, ...]:
-    """Room for the layout of ``room`` points of ``bodies`` bodies: ``(first, order, wave, tally, ends,
-    latest)``, the scratch of ``wavefront`` and ``wide.lay_out`` (whose blocks ``wide.block_workspace``
-    makes)."""
-    return (np.empty(room + 1, np.int64), np.empty(room, np.int64), np.empty(room, np.int64),
-            np.empty(room + 1, np.int64), np.empty(room + 1, np.uint64), np.empty(bodies, np.int64))
+def pass_workspace(room: int, worlds: int) -> tuple[np.ndarray, ...]:
+    """Room for the layout of ``worlds`` worlds of at most ``room`` points each: ``(first, order, wave, tally,
+    place, slots)``, one row a world (``wavefront``'s scratch, ``wide.place_waves``' lanes and ``wide.lay_out``'s
+    point slots), and ``(ends, used)``, the layout's (``wide.place_waves``)."""
+    return (np.empty((worlds, room + 1), np.int64), np.empty((worlds, room), np.int64),
+            np.empty((worlds, room), np.int64), np.empty((worlds, room + 1), np.int64),
+            np.empty((worlds, room + 1), np.int64), np.empty((worlds, room), np.uint64),
+            np.empty(room + 1, np.uint64), np.empty(room + 1, np.int64))
 
 
 @leaf
 def load_bodies(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, bodies: np.ndarray) -> None:
-    """The bodies' rows as a step begins: velocities, not moved yet; the ground's row (last) all zeros and no
-    turn. The ground's zeros enter a visit's sums as ``x - 0.0``, which is ``x``, so a visit reads the ground
-    as a body without a test and gets the numbers of skipping it; nothing writes it."""
-    n = vx.shape[0]
-    for i in range(n + 1):
-        if i < n:
-            bodies[i, V_X], bodies[i, V_Y], bodies[i, V_W] = vx[i], vy[i], w[i]
-        else:
-            bodies[i, V_X], bodies[i, V_Y], bodies[i, V_W] = 0.0, 0.0, 0.0
+    """The bodies' rows as a step begins: velocities, not moved yet."""
+    for i in range(vx.shape[0]):
+        bodies[i, V_X], bodies[i, V_Y], bodies[i, V_W] = vx[i], vy[i], w[i]
         bodies[i, D_X], bodies[i, D_Y], bodies[i, COS], bodies[i, SIN] = 0.0, 0.0, 1.0, 0.0
+
+
+@leaf
+def still_ground(bodies: np.ndarray) -> None:
+    """The ground's row (the last): all zeros and no turn. The ground's zeros enter a visit's sums as
+    ``x - 0.0``, which is ``x``, so a visit reads the ground as a body without a test and gets the numbers of
+    skipping it; nothing writes it."""
+    g = bodies.shape[0] - 1
+    bodies[g, V_X], bodies[g, V_Y], bodies[g, V_W] = 0.0, 0.0, 0.0
+    bodies[g, D_X], bodies[g, D_Y], bodies[g, COS], bodies[g, SIN] = 0.0, 0.0, 1.0, 0.0
 
 
 @leaf
@@ -145,72 +162,162 @@ def soft_step_advance(x: np.ndarray, y: np.ndarray, angle: np.ndarray, vx: np.nd
                       held: np.ndarray, applied: np.ndarray, kept_ids: np.ndarray, kept_points: np.ndarray,
                       kept_count: np.ndarray, kept_at: np.ndarray, kept_near: np.ndarray, kept_fat: np.ndarray,
                       last: np.ndarray, peak: np.ndarray, reach: np.ndarray, touched: np.ndarray,
-                      launch: np.ndarray, steps: int) -> None:
-    """``steps`` steps of every batch row, in place; ``keys``, ``carried`` and ``held`` carry each row's
-    points and impulses from one step (and one call) to the next; ``applied`` gets what each step applied
-    (``stackx.solvers.planar.applied``) when it has room for them (``watch_impulses``), else nothing; the
-    ``kept_`` arrays (``kept.Kept``) carry the contacts found where a call ends to the next call."""
-    for b in prange(x.shape[0]):
-        xb, yb, ab, vxb, vyb, wb = x[b], y[b], angle[b], vx[b], vy[b], w[b]  # the row's views, made once
-        im, ii, hxb, hyb, mub = inv_mass[b], inv_inertia[b], hx[b], hy[b], friction[b]
-        n = x.shape[1]
-        h = dt[b] / substeps[b]
+                      launch: np.ndarray, groups: np.ndarray, chunks: np.ndarray, steps: int) -> None:
+    """``steps`` steps of every batch row, in place, the rows ``groups[i]`` to ``groups[i + 1]`` stepped
+    together (``step_rows``), the groups ``chunks[t]`` to ``chunks[t + 1]`` one after the other on one thread;
+    ``keys``, ``carried`` and ``held`` carry each row's points and impulses from one step (and one call) to
+    the next; ``applied`` gets what each step applied (``stackx.solvers.planar.applied``) when it has room
+    for them (``watch_impulses``), else nothing; the ``kept_`` arrays (``kept.Kept``) carry the contacts
+    found where a call ends to the next call.
+
+    A chunk's groups share one set of contact tables and blocks, made once: memory taken afresh for every
+    group would be handed back to the system and faulted in again page by page, which on 64 rows of a
+    20-row pyramid cost about a tenth of a step."""
+    for t in prange(chunks.shape[0] - 1):
+        most = 1
+        for i in range(chunks[t], chunks[t + 1]):
+            most = max(most, groups[i + 1] - groups[i])
+        # the contact tables unfilled (``contact_workspace`` zeroes them): a step reads only what ``collide``
+        # and the step itself write, and zeroing a pile's room costs a call more than its bookkeeping
+        ids_of = [np.empty((keys.shape[1], 3), np.int64) for _ in range(most)]
+        table_of = [np.empty((keys.shape[1], COLUMNS)) for _ in range(most)]
+        record, sides = block_workspace(1)  # grown to the steps' blocks at their first lay-out
+        for i in range(chunks[t], chunks[t + 1]):
+            record, sides = step_rows(groups[i], groups[i + 1], x, y, angle, vx, vy, w, inv_mass, inv_inertia, hx,
+                                      hy, friction, g, dt, substeps, hertz, damping_ratio, push_out, relax, warm,
+                                      speculative, keys, carried, held, applied, kept_ids, kept_points, kept_count,
+                                      kept_at, kept_near, kept_fat, last, peak, reach, touched, launch, ids_of,
+                                      table_of, record, sides, steps)
+
+
+@kernel
+def step_rows(lo: int, hi: int, x: np.ndarray, y: np.ndarray, angle: np.ndarray, vx: np.ndarray, vy: np.ndarray,
+              w: np.ndarray, inv_mass: np.ndarray, inv_inertia: np.ndarray, hx: np.ndarray, hy: np.ndarray,
+              friction: np.ndarray, g: np.ndarray, dt: np.ndarray, substeps: np.ndarray, hertz: np.ndarray,
+              damping_ratio: np.ndarray, push_out: np.ndarray, relax: np.ndarray, warm: np.ndarray,
+              speculative: np.ndarray, keys: np.ndarray, carried: np.ndarray, held: np.ndarray,
+              applied: np.ndarray, kept_ids: np.ndarray, kept_points: np.ndarray, kept_count: np.ndarray,
+              kept_at: np.ndarray, kept_near: np.ndarray, kept_fat: np.ndarray, last: np.ndarray, peak: np.ndarray,
+              reach: np.ndarray, touched: np.ndarray, launch: np.ndarray, ids_of: list[np.ndarray],
+              table_of: list[np.ndarray], record: np.ndarray, sides: np.ndarray,
+              steps: int) -> tuple[np.ndarray, np.ndarray]:
+    """``steps`` steps of rows ``lo`` to ``hi``, which share their substep, number of substeps, relax and
+    push-out (``row_groups``): each row finds, recalls and orders its contacts alone, and the passes run over
+    one layout of all the rows' manifolds, the rows' bodies one after the other in the bodies' rows
+    (``wide.place_waves``). A row's manifolds and bodies meet no other row's, so every number is the one
+    stepping the row alone gives; a pass over several worlds keeps more independent visits in flight (a
+    pass over one pyramid waits on its chain of waves). Row ``r`` of the group uses the contact table
+    ``ids_of[r]``, ``table_of[r]`` (replaced by a larger one when its points outgrow it), and the blocks are
+    ``record`` and ``sides`` (``wide.block_workspace``), grown when too small; returns the blocks."""
+    worlds = hi - lo
+    n = x.shape[1]
+    h = dt[lo] / substeps[lo]
+    softness = np.empty((worlds, 2, 3))
+    for r in range(worlds):
+        b = lo + r
         contact_hertz = min(hertz[b], SUBSTEP_HERTZ / h)
-        softness = np.empty((2, 3))
-        softness[0, 0], softness[0, 1], softness[0, 2] = soft(contact_hertz, damping_ratio[b], h)
-        softness[1, 0], softness[1, 1], softness[1, 2] = soft(STATIC_HERTZ * contact_hertz, damping_ratio[b], h)
-        # the contact table unfilled (``contact_workspace`` zeroes it): a step reads only what ``collide`` and
-        # the step itself write, and zeroing a pile's room costs a call more than its bookkeeping
-        ids, table = np.empty((keys.shape[1], 3), np.int64), np.empty((keys.shape[1], COLUMNS))
-        first, order, wave, tally, ends, latest = pass_workspace(ids.shape[0], n)
-        record, sides, rows = block_workspace(1)  # grown to the step's blocks at its first lay-out
-        start = np.empty((n, 3))
-        bodies = np.empty((n + 1, BODY_COLUMNS))
-        near, fat = near_workspace(n)  # the broad phase's candidates, kept while the boxes stay near
-        count = take_back(xb, yb, ab, hxb, hyb, im, ids, table, near, fat, kept_ids[b], kept_points[b],
-                          kept_count[b], kept_at[b], kept_near[b], kept_fat[b])
-        if count < 0:
-            ids, table, count, near = find_contacts_near(xb, yb, ab, hxb, hyb, im, speculative[b], near, fat, ids,
-                                                         table)
-        watched = applied.shape[1] > 0  # the step's impulses are summed only for a caller that reads them
-        for _ in range(steps):
-            if order.shape[0] < ids.shape[0]:
-                first, order, wave, tally, ends, latest = pass_workspace(ids.shape[0], n)
-            table[:count, PN] = 0.0
-            table[:count, PT] = 0.0
+        softness[r, 0, 0], softness[r, 0, 1], softness[r, 0, 2] = soft(contact_hertz, damping_ratio[b], h)
+        softness[r, 1, 0], softness[r, 1, 1], softness[r, 1, 2] = soft(STATIC_HERTZ * contact_hertz,
+                                                                       damping_ratio[b], h)
+    near_of = [np.empty(0, np.int64) for _ in range(worlds)]  # the broad phase's candidates, kept while the
+    fat_of = [np.empty((0, 4)) for _ in range(worlds)]  # boxes stay near (``near_workspace``, below)
+    count = np.empty(worlds, np.int64)
+    waves = np.empty(worlds, np.int64)
+    room = 0
+    for r in range(worlds):
+        room = max(room, ids_of[r].shape[0])
+    first, order, wave, tally, place, slots, ends, used = pass_workspace(room, worlds)
+    ordered = np.full(worlds, -1, np.int64)  # per row: the points its wave order is for (-1: none yet)
+    latest = np.empty(n, np.int64)
+    start = np.empty((worlds * n, 3))  # where each body was when the step began
+    bodies = np.empty((worlds * n + 1, BODY_COLUMNS))  # row r's bodies from r n on, the ground's last
+    ground = worlds * n
+    for r in range(worlds):
+        b = lo + r
+        near_of[r], fat_of[r] = near_workspace(n)
+        count[r] = take_back(x[b], y[b], angle[b], hx[b], hy[b], inv_mass[b], ids_of[r], table_of[r], near_of[r],
+                             fat_of[r], kept_ids[b], kept_points[b], kept_count[b], kept_at[b], kept_near[b],
+                             kept_fat[b])
+        if count[r] < 0:
+            ids_of[r], table_of[r], count[r], near_of[r] = find_contacts_near(
+                x[b], y[b], angle[b], hx[b], hy[b], inv_mass[b], speculative[b], near_of[r], fat_of[r], ids_of[r],
+                table_of[r])
+    watched = applied.shape[1] > 0  # the step's impulses are summed only for a caller that reads them
+    laid = False  # whether the blocks hold the last step's layout
+    for _ in range(steps):
+        most = 0
+        kept_pairs = True  # whether every row's manifolds are the last step's, in the same order
+        for r in range(worlds):
+            room = max(room, ids_of[r].shape[0])
+        if order.shape[1] < room:
+            first, order, wave, tally, place, slots, ends, used = pass_workspace(room, worlds)
+            ordered[:] = -1
+        for r in range(worlds):
+            b, ids, table = lo + r, ids_of[r], table_of[r]
+            # the last step's pairs again (a pile at rest): the same manifolds, so the wave order found for them
+            same = same_pairs(ids, count[r], keys[b], held[b]) and ordered[r] == count[r]
+            kept_pairs = kept_pairs and same
             if warm[b]:
-                recall(ids, table, count, keys[b], carried[b], held[b])
-            m = manifold_starts(ids, count, first)
-            waves = wavefronts(ids, first, m, latest, wave, tally, order)
-            blocks = blocks_needed(tally, waves)
-            if sides.shape[0] < blocks * LANES:
-                record, sides, rows = block_workspace(blocks + blocks // 2)
-            lay_out(xb, yb, im, ii, mub, ids, table, first, order, waves, tally, softness, ends, sides, rows, record)
-            for i in range(n):
-                start[i, 0], start[i, 1], start[i, 2] = xb[i], yb[i], ab[i]
-            load_bodies(vxb, vyb, wb, bodies)
+                recall(ids, table, count[r], keys[b], carried[b], held[b])
+            else:
+                table[:count[r], PN] = 0.0
+                table[:count[r], PT] = 0.0
+            if not same:
+                m = manifold_starts(ids, count[r], first[r])
+                waves[r] = wavefronts(ids, first[r], m, latest, wave[r], tally[r], order[r])
+                ordered[r] = count[r]
+            most = max(most, waves[r])
+        blocks = place_waves(tally, waves, most, place, used, ends)
+        if sides.shape[0] < blocks * LANES:
+            record, sides = block_workspace(blocks + blocks // 2)
+            laid = False
+        for r in range(worlds):  # the same manifolds in the same lanes: what depends on the pairs alone is there
+            b = lo + r
+            lay_out(x[b], y[b], inv_mass[b], inv_inertia[b], friction[b], ids_of[r], table_of[r], first[r],
+                    order[r], waves[r], tally[r], softness[r], place[r], r * n, ground, not (laid and kept_pairs),
+                    sides, slots[r], record)
+        laid = True
+        for v in range(most):
+            empty_lanes(record, sides, used[v], ends[v] * LANES, ground)
+        effective_masses(record, np.uint64(blocks))
+        for r in range(worlds):
+            b = lo + r
+            for k in range(n):
+                start[r * n + k, 0], start[r * n + k, 1], start[r * n + k, 2] = x[b, k], y[b, k], angle[b, k]
+            load_bodies(vx[b], vy[b], w[b], bodies[r * n:])
             if watched:
-                clear_applied(applied[b], count)
-            for i in range(substeps[b]):
-                body_gravity(bodies, im, g[b], h)
-                warm_start(bodies, sides, record, blocks)
-                # the relax pass measured the separations where the boxes still are
-                soft_pass(bodies, sides, record, waves, ends, h, True, push_out[b], i == 0 or not relax[b])
-                integrate_moved(xb, yb, ab, bodies, start, h)
-                if relax[b]:
-                    soft_pass(bodies, sides, record, waves, ends, h, False, push_out[b], True)
-                if watched:
-                    add_applied(rows, record, blocks, applied[b])
-            store_velocities(bodies, vxb, vyb, wb)
-            give_back(table, rows, record, blocks)
-            held[b] = remember(ids, table, count, keys[b], carried[b])
+                clear_applied(applied[b], count[r])
+        still_ground(bodies)
+        for i in range(substeps[lo]):
+            for r in range(worlds):
+                body_gravity(bodies[r * n:], inv_mass[lo + r], g[lo + r], h)
+            warm_start(bodies, sides, record, most, ends)
+            # the relax pass measured the separations where the boxes still are
+            soft_pass(bodies, sides, record, most, ends, h, True, push_out[lo], i == 0 or not relax[lo])
+            for r in range(worlds):
+                b = lo + r
+                integrate_moved(x[b], y[b], angle[b], bodies[r * n:], start[r * n:], h)
+            if relax[lo]:
+                soft_pass(bodies, sides, record, most, ends, h, False, push_out[lo], True)
+            if watched:
+                for r in range(worlds):
+                    add_applied(slots[r], count[r], record, applied[lo + r])
+        for r in range(worlds):
+            b = lo + r
+            store_velocities(bodies[r * n:], vx[b], vy[b], w[b])
+            held[b] = remember_laid(ids_of[r], count[r], slots[r], record, keys[b], carried[b])
             # where the step ended: the contacts of its monitors and of the next step (``observed_contacts``)
-            ids, table, count, near = find_contacts_near(xb, yb, ab, hxb, hyb, im, speculative[b], near, fat, ids,
-                                                         table)
-            observe_contacts(xb, yb, ab, hxb, hyb, im, speculative[b], ids, table, count, dt[b], last, peak, reach,
-                             touched, launch, b)
-        kept_count[b] = keep(xb, yb, ab, hxb, hyb, im, ids, table, count, near, fat, kept_ids[b], kept_points[b],
-                             kept_at[b], kept_near[b], kept_fat[b])
+            ids_of[r], table_of[r], count[r], near_of[r] = find_contacts_near(
+                x[b], y[b], angle[b], hx[b], hy[b], inv_mass[b], speculative[b], near_of[r], fat_of[r], ids_of[r],
+                table_of[r])
+            observe_contacts(x[b], y[b], angle[b], hx[b], hy[b], inv_mass[b], speculative[b], ids_of[r],
+                             table_of[r], count[r], dt[b], last, peak, reach, touched, launch, b)
+    for r in range(worlds):
+        b = lo + r
+        kept_count[b] = keep(x[b], y[b], angle[b], hx[b], hy[b], inv_mass[b], ids_of[r], table_of[r], count[r],
+                             near_of[r], fat_of[r], kept_ids[b], kept_points[b], kept_at[b], kept_near[b],
+                             kept_fat[b])
+    return record, sides
 
 
 @solvers.register("planar-soft-step")
@@ -257,7 +364,26 @@ class PlanarSoftStep(PlanarMemorySolver):
             self.applied = np.zeros((keys.shape[0], room, 2))
         if self.kept is None or not self.kept.fits(s.batch, s.bodies, keys.shape[1]):
             self.kept = Kept(s.batch, s.bodies, keys.shape[1])
+        groups = self.row_groups(s.x)
+        threads = spread(s.x)  # the groups split evenly over the threads, as numba splits a prange
+        chunks = (np.arange(threads + 1) * (len(groups) - 1)) // threads
         soft_step_advance(s.x, s.y, s.angle, s.vx, s.vy, s.w, s.inv_mass, s.inv_inertia, s.hx, s.hy, s.friction,
                           self.gravity, self.dt, self.substeps, self.hertz, self.damping_ratio, self.push_out,
                           self.relax, self.warm, self.speculative, keys, carried, held, self.applied,
-                          *self.kept.arrays(), *s.monitors(), steps)
+                          *self.kept.arrays(), *s.monitors(), groups, chunks, steps)
+
+    def row_groups(self, x: np.ndarray) -> np.ndarray:
+        """Which rows ``soft_step_advance`` steps together: runs of consecutive rows, at most ``GROUP`` and no
+        more than leaves every thread a group (``kernel.spread``), that share the substep, number of
+        substeps, relax and push-out, so their passes can run as one; the boundaries, from 0 to the batch."""
+        batch = x.shape[0]
+        size = max(1, min(GROUP, batch // spread(x)))
+        h = self.dt / self.substeps
+        bounds = [0]
+        for b in range(1, batch):
+            lead = bounds[-1]
+            if (b - lead >= size or h[b] != h[lead] or self.substeps[b] != self.substeps[lead]
+                    or self.relax[b] != self.relax[lead] or self.push_out[b] != self.push_out[lead]):
+                bounds.append(b)
+        bounds.append(batch)
+        return np.array(bounds, np.int64)

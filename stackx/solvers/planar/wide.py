@@ -37,7 +37,7 @@ from __future__ import annotations
 import numpy as np
 
 from stackx.kernel import inlined, kernel, leaf
-from stackx.solvers.planar.contacts import A, B, DEPTH, NX, NY, PN, PT, PX, PY, effective_mass
+from stackx.solvers.planar.contacts import A, B, DEPTH, FEATURE, NX, NY, PN, PT, PX, PY, effective_mass
 
 LANES = 4  # manifolds a block solves side by side
 
@@ -56,7 +56,6 @@ BLOCK = FIELDS * LANES
 SECOND = np.uint64(12 * LANES)
 (R_VAX, R_VAY, R_WA, R_VBX, R_VBY, R_WB, R_DXA, R_DYA, R_CA, R_SA, R_DXB, R_DYB, R_CB, R_SB) = (
     np.uint64(f * LANES) for f in range(34, FIELDS))
-NONE = np.uint64(2 ** 62)  # the table row of a point slot that holds no point
 
 # the bodies as the passes read them, one row each and the ground's last: velocities and the motion since the
 # step began (``substep.moved_body``: dx, dy, cosine and sine of the turn), padded to 64 bytes, so a body a
@@ -66,53 +65,42 @@ BODY_COLUMNS = 8
 
 
 @kernel
-def block_workspace(blocks: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Room for ``blocks`` blocks: ``(record, sides, rows)``: the records, each lane's two bodies, and each
-    lane's two points' table rows (``NONE`` where there is no point)."""
-    return np.empty(blocks * BLOCK), np.empty((blocks * LANES, 2), np.uint64), np.empty(blocks * LANES * 2, np.uint64)
-
-
-@leaf
-def blocks_needed(tally: np.ndarray, waves: int) -> int:
-    """Blocks of ``LANES`` manifolds the waves take (``tally`` from ``wavefronts``)."""
-    blocks, begin = 0, 0
-    for v in range(waves):
-        blocks += (tally[v] - begin + LANES - 1) // LANES
-        begin = tally[v]
-    return blocks
+def block_workspace(blocks: int) -> tuple[np.ndarray, np.ndarray]:
+    """Room for ``blocks`` blocks: ``(record, sides)``: the records and each lane's two bodies."""
+    return np.empty(blocks * BLOCK), np.empty((blocks * LANES, 2), np.uint64)
 
 
 @leaf
 def lay_out(x: np.ndarray, y: np.ndarray, inv_mass: np.ndarray, inv_inertia: np.ndarray, friction: np.ndarray,
             ids: np.ndarray, table: np.ndarray, first: np.ndarray, order: np.ndarray, waves: int,
-            tally: np.ndarray, softness: np.ndarray, ends: np.ndarray, sides: np.ndarray, rows: np.ndarray,
-            record: np.ndarray) -> None:
-    """The step's manifolds in blocks, wave by wave (``order``, ``tally`` from ``wavefronts``), with all a
-    visit reads that does not change within the step, found once; ``ends[v]``: where wave ``v``'s blocks
-    end. The arithmetic of ``contacts.prepare`` and ``substep.base_separations``; softness row 1 where a side
-    is static (the ground or a static box); impulses as ``recall`` left them in the table. A lane without a
-    manifold has the ground (body ``n``) on both sides and zeros; a missing second point, zeros."""
-    ground = np.uint64(x.shape[0])
-    blk, begin = np.uint64(0), 0
+            tally: np.ndarray, softness: np.ndarray, place: np.ndarray, offset: int, ground: int, whole: bool,
+            sides: np.ndarray, slots: np.ndarray, record: np.ndarray) -> None:
+    """One world's manifolds in lanes, wave by wave (``order``, ``tally`` from ``wavefronts``), with all a
+    visit reads that does not change within the step, found once: wave ``v``'s manifolds in consecutive lanes
+    from lane ``place[v]`` (lane ``l`` is lane ``l % LANES`` of block ``l // LANES``). The world's bodies are
+    the passes' body rows ``offset`` on and the ground is row ``ground``, so several worlds laid out in one
+    set of blocks share no body and a wave's blocks may hold manifolds of several; ``slots[k]``: the point
+    slot (``point_at``) of the world's point ``k``. The arithmetic of ``contacts.prepare`` and ``substep.base_separations``; softness row 1
+    where a side is static (the ground or a static box); impulses as ``recall`` left them in the table. A
+    missing second point has zeros; lanes without a manifold are ``empty_lanes``' and the effective masses
+    ``effective_masses``', once the blocks are full. Not ``whole``: the blocks hold this layout of the same
+    manifolds from the last step (the same pairs in the same lanes), so what depends on the pairs alone
+    (bodies, masses, friction, softness, point slots), which no pass writes, is there already; only what
+    the points' positions and impulses give is written."""
+    none = np.uint64(ground)
+    begin = 0
     for v in range(waves):
-        for j0 in range(begin, tally[v], LANES):
-            o = blk * np.uint64(BLOCK)
-            for lane in range(LANES):
-                slot = blk * np.uint64(LANES) + np.uint64(lane)
-                sides[slot, 0], sides[slot, 1] = ground, ground
-                rows[np.uint64(2) * slot], rows[np.uint64(2) * slot + np.uint64(1)] = NONE, NONE
-                jj = j0 + lane
-                if jj >= tally[v]:
-                    for f in range(np.uint64(0), R_VAX, np.uint64(LANES)):
-                        record[o + f + np.uint64(lane)] = 0.0
-                    continue
-                k0, k1 = first[order[jj]], first[order[jj] + 1]
-                a, b = ids[k0, A], ids[k0, B]
+        for jj in range(begin, tally[v]):
+            slot = np.uint64(place[v] + (jj - begin))
+            k0, k1 = first[order[jj]], first[order[jj] + 1]
+            a, b = ids[k0, A], ids[k0, B]
+            at = (slot // np.uint64(LANES)) * np.uint64(BLOCK) + slot % np.uint64(LANES)
+            if whole:
                 imb, iib = inv_mass[b], inv_inertia[b]
                 ima, iia = (inv_mass[a], inv_inertia[a]) if a >= 0 else (0.0, 0.0)
                 soft = 1 if a < 0 or ima == 0.0 or imb == 0.0 else 0
-                sides[slot, 0], sides[slot, 1] = np.uint64(a) if a >= 0 else ground, np.uint64(b)
-                at = o + np.uint64(lane)
+                sides[slot, 0] = np.uint64(offset + a) if a >= 0 else none
+                sides[slot, 1] = np.uint64(offset + b)
                 record[at + R_IMA], record[at + R_IIA] = ima, iia
                 record[at + R_IMB], record[at + R_IIB] = imb, iib
                 record[at + R_MU] = np.sqrt(friction[a] * friction[b]) if a >= 0 else friction[b]
@@ -121,26 +109,35 @@ def lay_out(x: np.ndarray, y: np.ndarray, inv_mass: np.ndarray, inv_inertia: np.
                 record[at + R_LET_GO] = softness[soft, 2]
                 record[at + R_MOVES_A] = 1.0 if a >= 0 else 0.0
                 record[at + R_TWO] = 1.0 if k1 - k0 > 1 else 0.0
-                if k1 - k0 == 1:  # no second point: zeros, which the passes compute with and then drop
-                    for f in range(R_NX, R_NX + SECOND, np.uint64(LANES)):
-                        record[at + SECOND + f] = 0.0
                 for q in range(k1 - k0):
-                    k = k0 + q
-                    rows[np.uint64(2) * slot + np.uint64(q)] = np.uint64(k)
-                    nx, ny = table[k, NX], table[k, NY]
-                    px, py = table[k, PX], table[k, PY]
-                    rbx, rby = px - x[b], py - y[b]
-                    rax, ray = (px - x[a], py - y[a]) if a >= 0 else (0.0, 0.0)
-                    p = at + np.uint64(q) * SECOND
-                    record[p + R_NX], record[p + R_NY] = nx, ny
-                    record[p + R_RAX], record[p + R_RAY] = rax, ray
-                    record[p + R_RBX], record[p + R_RBY] = rbx, rby
-                    record[p + R_BASE] = -table[k, DEPTH] - ((rbx - rax) * nx + (rby - ray) * ny)
-                    record[p + R_PN], record[p + R_PT] = table[k, PN], table[k, PT]
-            blk += np.uint64(1)
-        ends[v] = blk
+                    slots[k0 + q] = np.uint64(2) * slot + np.uint64(q)
+            if k1 - k0 == 1:  # no second point: zeros, which the passes compute with and then drop
+                for f in range(R_NX, R_NX + SECOND, np.uint64(LANES)):
+                    record[at + SECOND + f] = 0.0
+            for q in range(k1 - k0):
+                k = k0 + q
+                nx, ny = table[k, NX], table[k, NY]
+                px, py = table[k, PX], table[k, PY]
+                rbx, rby = px - x[b], py - y[b]
+                rax, ray = (px - x[a], py - y[a]) if a >= 0 else (0.0, 0.0)
+                p = at + np.uint64(q) * SECOND
+                record[p + R_NX], record[p + R_NY] = nx, ny
+                record[p + R_RAX], record[p + R_RAY] = rax, ray
+                record[p + R_RBX], record[p + R_RBY] = rbx, rby
+                record[p + R_BASE] = -table[k, DEPTH] - ((rbx - rax) * nx + (rby - ray) * ny)
+                record[p + R_PN], record[p + R_PT] = table[k, PN], table[k, PT]
         begin = tally[v]
-    effective_masses(record, blk)
+
+
+@leaf
+def empty_lanes(record: np.ndarray, sides: np.ndarray, begin: int, end: int, ground: int) -> None:
+    """Lanes ``begin`` to ``end`` hold no manifold: the ground on both sides, no points, zeros, which the passes
+    compute with and nothing reads back."""
+    for lane in range(np.uint64(begin), np.uint64(end)):
+        sides[lane, 0], sides[lane, 1] = np.uint64(ground), np.uint64(ground)
+        at = (lane // np.uint64(LANES)) * np.uint64(BLOCK) + lane % np.uint64(LANES)
+        for f in range(np.uint64(0), R_VAX, np.uint64(LANES)):
+            record[at + f] = 0.0
 
 
 @leaf
@@ -161,13 +158,17 @@ def effective_masses(record: np.ndarray, blocks: np.uint64) -> None:
 
 
 @leaf
-def give_back(table: np.ndarray, rows: np.ndarray, record: np.ndarray, blocks: int) -> None:
-    """Each point's accumulated impulses back to its row of the table, where ``remember`` keeps them."""
-    for slot in range(np.uint64(blocks * LANES * 2)):
-        k = rows[slot]
-        if k != NONE:
-            at = point_at(slot)
-            table[k, PN], table[k, PT] = record[at + R_PN], record[at + R_PT]
+def remember_laid(ids: np.ndarray, count: int, slots: np.ndarray, record: np.ndarray, keys: np.ndarray,
+                  carried: np.ndarray) -> int:
+    """``contacts.remember`` for one world laid out with point slots ``slots`` (``lay_out``), the impulses read
+    where the passes left them: each of the first ``count`` points' key and accumulated impulses kept for the
+    next step (as many as the memory holds); returns how many."""
+    held = min(count, keys.shape[0])
+    for k in range(held):
+        keys[k, 0], keys[k, 1], keys[k, 2] = ids[k, A], ids[k, B], ids[k, FEATURE]
+        at = point_at(slots[k])
+        carried[k, 0], carried[k, 1] = record[at + R_PN], record[at + R_PT]
+    return held
 
 
 @leaf
@@ -180,41 +181,46 @@ def point_at(slot: np.uint64) -> np.uint64:
 
 
 @leaf
-def add_applied(rows: np.ndarray, record: np.ndarray, blocks: int, applied: np.ndarray) -> None:
-    """``applied.add_applied`` on the blocks: the end of a substep adds each point's accumulated impulses,
-    which the substep applied, to ``applied`` at the point's table row."""
-    for slot in range(np.uint64(blocks * LANES * 2)):
-        k = rows[slot]
-        if k < applied.shape[0]:
-            at = point_at(slot)
-            applied[k, 0] += record[at + R_PN]
-            applied[k, 1] += record[at + R_PT]
+def add_applied(slots: np.ndarray, count: int, record: np.ndarray, applied: np.ndarray) -> None:
+    """``applied.add_applied`` for one world's ``count`` points laid out with point slots ``slots``: the end of
+    a substep adds each point's accumulated impulses, which the substep applied, to ``applied`` at the
+    point's table row."""
+    for k in range(min(count, applied.shape[0])):
+        at = point_at(slots[k])
+        applied[k, 0] += record[at + R_PN]
+        applied[k, 1] += record[at + R_PT]
 
 
 @leaf
-def warm_start(bodies: np.ndarray, sides: np.ndarray, record: np.ndarray, blocks: int) -> None:
-    """``contacts.warm_start`` on the blocks: every point's accumulated impulses applied to its bodies, lane
-    by lane, a lane's points in order (which keeps each body's order of points, so the same sums)."""
-    ground = np.uint64(bodies.shape[0] - 1)
-    for slot in range(np.uint64(blocks * LANES)):
-        a, b = sides[slot, 0], sides[slot, 1]
-        if b == ground:
-            continue
-        at = (slot // np.uint64(LANES)) * np.uint64(BLOCK) + slot % np.uint64(LANES)
-        two = record[at + R_TWO] != 0.0
-        for q in range(2 if two else 1):
-            p = at + np.uint64(q) * SECOND
-            pn, pt = record[p + R_PN], record[p + R_PT]
-            if pn != 0.0 or pt != 0.0:
-                nx, ny = record[p + R_NX], record[p + R_NY]
-                px, py = pn * nx - pt * ny, pn * ny + pt * nx
-                bodies[b, V_X] += record[at + R_IMB] * px
-                bodies[b, V_Y] += record[at + R_IMB] * py
-                bodies[b, V_W] += record[at + R_IIB] * (record[p + R_RBX] * py - record[p + R_RBY] * px)
-                if a != ground:
-                    bodies[a, V_X] -= record[at + R_IMA] * px
-                    bodies[a, V_Y] -= record[at + R_IMA] * py
-                    bodies[a, V_W] -= record[at + R_IIA] * (record[p + R_RAX] * py - record[p + R_RAY] * px)
+def warm_start(bodies: np.ndarray, sides: np.ndarray, record: np.ndarray, waves: int, ends: np.ndarray) -> None:
+    """``contacts.warm_start`` on the blocks: every point's accumulated impulses applied to its bodies, wave by
+    wave as a pass walks them (the wave's bodies gathered, both points of every lane, scattered back). Each
+    body meets its points in the order of the points of the table (a wave's manifolds share no body, a
+    lane's points in order), so the same sums."""
+    begin = np.uint64(0)
+    for v in range(waves):
+        end = ends[v]
+        for blk in range(begin, end):
+            gather(bodies, sides, record, blk, False)
+        for blk in range(begin, end):
+            for lane in range(np.uint64(LANES)):
+                at = blk * np.uint64(BLOCK) + lane
+                for q in range(2):
+                    warm_visit(record, at, q)
+        for blk in range(begin, end):
+            scatter(bodies, sides, record, blk)
+        begin = end
+
+
+@inlined
+def warm_visit(record: np.ndarray, at: np.uint64, q: int) -> None:
+    """Point ``q``'s accumulated impulses applied in the lane whose fields start at ``at``, kept where the lane
+    has the point and it carries an impulse (``contacts.warm_start`` applies only those)."""
+    p = at + np.uint64(q) * SECOND
+    pn, pt = record[p + R_PN], record[p + R_PT]
+    nx, ny = record[p + R_NX], record[p + R_NY]
+    keep = (q == 0 or record[at + R_TWO] != 0.0) and (pn != 0.0 or pt != 0.0)
+    apply(record, at, p, pn * nx - pt * ny, pn * ny + pt * nx, keep)
 
 
 @inlined
@@ -382,3 +388,25 @@ def soft_pass(bodies: np.ndarray, sides: np.ndarray, record: np.ndarray, waves: 
         for blk in range(begin, end):
             scatter(bodies, sides, record, blk)
         begin = end
+
+
+@leaf
+def place_waves(tally: np.ndarray, waves: np.ndarray, most: int, place: np.ndarray, used: np.ndarray,
+                ends: np.ndarray) -> int:
+    """Where the manifolds of several worlds go in one set of blocks (``tally[r]`` and ``waves[r]`` world
+    ``r``'s from ``wavefronts``, ``most`` the largest of ``waves``): wave ``v`` of every world side by side, world
+    by world, in the blocks of the layout's wave ``v``. ``place[r, v]``: the lane world ``r``'s wave ``v`` begins
+    at (``lay_out``); ``used[v]``: one past the last lane of wave ``v`` with a manifold; ``ends[v]``: where the
+    blocks of wave ``v`` end. Returns the blocks. The worlds share no body, so no manifold of a wave shares a
+    body with another of it, and each body meets its manifolds in its own world's order."""
+    blocks = 0
+    for v in range(most):
+        lane = blocks * LANES
+        for r in range(tally.shape[0]):
+            if v < waves[r]:
+                place[r, v] = lane
+                lane += tally[r, v] - (tally[r, v - 1] if v > 0 else 0)
+        used[v] = lane
+        blocks = (lane + LANES - 1) // LANES
+        ends[v] = np.uint64(blocks)
+    return blocks
