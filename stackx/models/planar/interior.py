@@ -45,6 +45,8 @@ TAU = 1e-13  # (m/s)^2: the pairs' mean product at which the path is left ...
 EQUATIONS = 1e-10  # m/s: ... once the equations hold this well too
 USABLE = 1e-9  # a path left early (jammed, or out of iterations) with the mean product below this is near its end
 ITERATIONS = 60  # most iterations
+PATIENCE = 5  # iterations over which ...
+CRAWL = 0.5  # ... the pairs' mean product must fall below this share of what it was, or the path has jammed
 SHORT = 1e-3  # a step shorter than this share of its direction has jammed ...
 STALLED = 4  # ... and this many of them in a row end the method
 FRACTION = 0.995  # of the way to the nearest bound a step goes
@@ -77,6 +79,7 @@ def central_path(values: np.ndarray, columns: np.ndarray, k: np.ndarray, cone: n
     pairs = m + 2 * rough.sum()
     short = 0
     iteration = 0
+    history: list[float] = []
     for iteration in range(1, ITERATIONS + 1):
         vv = np.append(v, 0.0)
         un = mode_rows.gathered(jn, cn, vv) + base_n
@@ -91,6 +94,9 @@ def central_path(values: np.ndarray, columns: np.ndarray, k: np.ndarray, cone: n
                   np.abs(r_p).max(initial=0.0), np.abs(r_m).max(initial=0.0))
         if tau < TAU and off < EQUATIONS:
             return np.concatenate([qn, qt]), iteration, 1
+        history.append(tau)
+        if len(history) > PATIENCE and tau > CRAWL * history[-1 - PATIENCE]:
+            break  # the products crawl: the path has folded here
         # per point: dqn = gn - an dun; dqt = gt - atn dun - att dut (see the module text)
         an = qn / s
         d = np.where(rough > 0.0, bm / fm + bp / fp, 1.0)
