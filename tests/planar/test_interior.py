@@ -63,6 +63,21 @@ def test_recorded_steps_the_newton_tries_missed_land_from_the_path(name: str) ->
         assert np.array_equal(sol.velocity, velocities_after(p, sol.pn, sol.pt))
 
 
+def test_where_the_path_folds_from_its_own_start_it_is_followed_again_from_the_warm_start() -> None:
+    # a loop of held faces on a pile seen through xpbd's margin: from every pair at 1 the path jams far from
+    # any answer; begun at the last step's impulses it ends, and Newton lands from there (the forced slides
+    # and Lemke's walk before)
+    (p, pn, pt), = _recorded("xpbd_pyramid_loop_step")
+    kn, kt = effective_masses(p)
+    s = reference.ModeSystem(p, kn, kt)
+    arrays = (s.values, s.columns, s.k, s.cone, s.v0, s.inv, s.fixed_u, s.target)
+    with np.errstate(all="ignore"):
+        assert interior.central_path(*arrays)[2] == 0
+        assert interior.central_path(*arrays, np.concatenate([pn / kn, pt / kt]))[2] == 1
+    sol = reference.solve(p, pn, pt)
+    assert sol.attempt == 0 and residual(p, sol.pn, sol.pt) < 1e-10
+
+
 def test_a_settling_20_row_pyramid_lands_from_the_path() -> None:
     # 800 points, 210 boxes: every Newton try and the proximal point walk missed it; Lemke's walk on the
     # regularized problem took seconds

@@ -54,15 +54,18 @@ CRAWL = 0.8  # ... the pairs' mean product must fall below this share of what it
 SHORT = 1e-3  # a step shorter than this share of its direction has jammed ...
 STALLED = 4  # ... and this many of them in a row end the method
 FRACTION = 0.995  # of the way to the nearest bound a step goes
+INSIDE = 1e-2  # m/s: how far inside its bounds a path begun at given impulses puts each pair
 
 
 def central_path(values: np.ndarray, columns: np.ndarray, k: np.ndarray, cone: np.ndarray, v0: np.ndarray,
-                 inv: np.ndarray, fixed_u: np.ndarray, target: np.ndarray) -> tuple[np.ndarray, int, int]:
+                 inv: np.ndarray, fixed_u: np.ndarray, target: np.ndarray,
+                 start: np.ndarray | None = None) -> tuple[np.ndarray, int, int]:
     """Follow the central path of a step problem given as ``reference.ModeSystem`` holds it (``J`` row by row
     over the movable degrees of freedom, effective masses ``k``, friction ``cone``, free velocities ``v0``,
-    inverse masses ``inv``, the rows' velocities of immovable bodies ``fixed_u`` and targets). Returns the
-    scaled impulses reached (``q``, normals then tangents), the iterations and whether it ended on the path's
-    end (1) or jammed or ran out (0)."""
+    inverse masses ``inv``, the rows' velocities of immovable bodies ``fixed_u`` and targets), from every pair
+    at 1 or, given ``start`` (scaled impulses, e.g. a warm start), from those impulses moved ``INSIDE`` into the
+    interior with the gaps and slips they give. Returns the scaled impulses reached (``q``, normals then
+    tangents), the iterations and whether it ended near the path's end (1) or jammed early (0)."""
     from scipy import sparse
     from scipy.sparse.linalg import splu
 
@@ -80,6 +83,15 @@ def central_path(values: np.ndarray, columns: np.ndarray, k: np.ndarray, cone: n
     v = v0.copy()
     qn, qt, s, bp, bm = np.ones(m), np.zeros(m), np.ones(m), rough.copy(), rough.copy()
     fp, fm = np.where(rough > 0.0, cone, 1.0), np.where(rough > 0.0, cone, 1.0)
+    if start is not None:  # the given impulses, each pair moved INSIDE off its bound
+        qn = np.maximum(start[:m], 0.0) + INSIDE
+        qt = np.clip(start[m:], -cone * qn + INSIDE, cone * qn - INSIDE) * rough
+        v = v0 + inv * (mode_rows.spread(jn, cn, kn * qn, dof) + mode_rows.spread(jt, ct, kt * qt, dof))
+        vv = np.append(v, 0.0)
+        s = np.maximum(mode_rows.gathered(jn, cn, vv) + base_n, 0.0) + INSIDE
+        slip = mode_rows.gathered(jt, ct, vv) + base_t
+        fp, fm = np.where(rough > 0.0, cone * qn - qt, 1.0), np.where(rough > 0.0, cone * qn + qt, 1.0)
+        bp, bm = (np.maximum(-slip, 0.0) + INSIDE) * rough, (np.maximum(slip, 0.0) + INSIDE) * rough
     pairs = m + 2 * rough.sum()
     short = 0
     iteration = 0
