@@ -34,8 +34,10 @@ pivoting. Steps stop at 99.5% of the way to the nearest bound.
 than ``CRAWL`` over ``PATIENCE`` iterations: with friction the problem is not monotone, and on some piles the
 central path folds and its steps jam. On a recorded ``pyramid-10`` step under ``planar-xpbd`` (16 substeps)
 the path loads two points that the exact answer leaves just apart (a gap opening at 1.4e-5 m/s) and starves
-the one that carries the box, and a point's friction swings from one bound to the other from step to step. The
-answer is returned with whether it is near the path's end (``tau`` below ``USABLE``); the caller checks it.
+the one that carries the box, and a point's friction swings from one bound to the other from step to step.
+Begun at the last step's answer instead (``start``: the impulses moved ``INSIDE`` their bounds), the path ends
+on that step and on the 18 of the run's steps tried. The answer is returned with whether it is near the path's
+end (``tau`` below ``USABLE``); the caller checks it.
 """
 
 from __future__ import annotations
