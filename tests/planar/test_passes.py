@@ -14,7 +14,7 @@ from stackx.solvers.planar.contacts import (A, B, DEPTH, PN, PT, accumulated_ite
                                             warm_start)
 from stackx.solvers.planar.wavefront import manifold_end, manifold_starts, wavefronts
 from tests.planar.lab_table import lab_table_pass
-from tests.planar.worlds import DT, G, run, world
+from tests.planar.worlds import DT, G, laid_step, run, world
 
 MARGIN = 0.02
 
@@ -53,12 +53,7 @@ def _laid_passes(s: PlanarState, ids: np.ndarray, table: np.ndarray, count: int,
                  relaxation: float, order_of_waves: slice = slice(None)) -> tuple[np.ndarray, np.ndarray]:
     """``passes`` laid-out passes from the table's impulses: the bodies' rows and each point's ``(pn, pt)`` in
     table order. ``order_of_waves`` visits the waves in another order (a broken layout, for the control)."""
-    first, order, wave, tally, latest, links, rows, bodies = laid.laid_workspace(ids.shape[0], s.bodies)
-    m = manifold_starts(ids, count, first)
-    waves = laid.visiting_order(ids, table, first, m, latest, wave, tally, order)
-    laid.lay_out(s.x[0], s.y[0], s.inv_mass[0], s.inv_inertia[0], s.friction[0], ids, table, first, order, m, DT,
-                 block, links, rows)
-    laid.load_velocities(s.vx[0], s.vy[0], s.w[0], s.inv_mass[0], s.inv_inertia[0], bodies)
+    m, waves, tally, links, rows, bodies = laid_step(s, ids, table, count, block)
     apart = [j for j in range(m) if rows[j, laid.M_OPEN] and laid.stays_apart(bodies, links, rows, j)]
     assert len(apart) >= (2 if block else 0)  # passed over by the pass: the fast path is part of what is compared
     if order_of_waves != slice(None):  # the waves' manifolds rearranged: same rows, another visiting order

@@ -9,8 +9,7 @@ from stackx import kernel
 from stackx.solvers.planar import passes as laid
 from stackx.solvers.planar.contacts import KN, MU, contact_workspace, find_contacts, prepare
 from stackx.solvers.planar.pgs import PlanarPGSParams
-from stackx.solvers.planar.wavefront import manifold_starts
-from tests.planar.worlds import DT, G, deepest, run, world
+from tests.planar.worlds import DT, G, deepest, laid_step, run, world
 
 MIXED = [{"x": 0.0, "y": 0.48, "angle": 0.05}, {"x": 0.3, "y": 1.5, "angle": -0.1, "vx": 0.5},
          {"x": 2.0, "y": 1.0, "angle": 0.7, "w": 2.0, "mu": 0.9}]
@@ -52,12 +51,7 @@ def _lab_passes(s, ids: np.ndarray, table: np.ndarray, count: int, passes: int) 
     """``passes`` of ``planar-pgs``'s own velocity pass (the lab's visits on the laid-out step) on row 0 of ``s``,
     in place: after each pass, the visits' summed normal and tangent impulses per point, ``(count, 2)`` in table
     order."""
-    first, order, group, tally, latest, links, rows, bodies = laid.laid_workspace(ids.shape[0], s.bodies)
-    m = manifold_starts(ids, count, first)
-    groups = laid.visiting_order(ids, table, first, m, latest, group, tally, order)
-    laid.lay_out(s.x[0], s.y[0], s.inv_mass[0], s.inv_inertia[0], s.friction[0], ids, table, first, order, m, DT,
-                 False, links, rows)
-    laid.load_velocities(s.vx[0], s.vy[0], s.w[0], s.inv_mass[0], s.inv_inertia[0], bodies)
+    m, groups, tally, links, rows, bodies = laid_step(s, ids, table, count, False)
     sums = []
     for _ in range(passes):
         laid.laid_pass(bodies, links, rows, groups, tally, 1.0, True)

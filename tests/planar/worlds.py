@@ -71,3 +71,20 @@ def ramp(angle: float, mu: float, slide_from: float = 3.0) -> PlanarState:
     lx, ly = slide_from, 1.0  # the box's centre in the plank's frame: on its top face
     box = {"x": c * lx - s * ly, "y": 20.0 + s * lx + c * ly, "angle": angle, "mu": mu}
     return world([plank, box])
+
+
+def laid_step(s: PlanarState, ids: np.ndarray, table: np.ndarray, count: int,
+              block: bool) -> tuple[int, int, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Row 0 of ``s`` laid out for the passes as a solver lays out its step (``stackx.solvers.planar.passes``):
+    the manifolds, the visiting groups, the groups' running tally, and the links, rows and bodies the passes
+    read and write (velocities loaded)."""
+    from stackx.solvers.planar import passes as laid
+    from stackx.solvers.planar.wavefront import manifold_starts
+
+    first, order, group, tally, latest, links, rows, bodies = laid.laid_workspace(ids.shape[0], s.bodies)
+    m = manifold_starts(ids, count, first)
+    groups = laid.visiting_order(ids, table, first, m, latest, group, tally, order)
+    laid.lay_out(s.x[0], s.y[0], s.inv_mass[0], s.inv_inertia[0], s.friction[0], ids, table, first, order, m, DT,
+                 block, links, rows)
+    laid.load_velocities(s.vx[0], s.vy[0], s.w[0], s.inv_mass[0], s.inv_inertia[0], bodies)
+    return m, groups, tally, links, rows, bodies
