@@ -144,3 +144,25 @@ def test_a_settling_20_row_pyramid_is_solved_by_pivoting_on_its_regularized_prob
     sol = reference.solve(p, pn, pt, begin=13, interior=False)
     assert sol.attempt == 13
     assert residual(p, sol.pn, sol.pt) < 1e-10
+
+
+
+@pytest.mark.parametrize("name", ["domino_pgs_step", "stack40_ngs_step"])
+def test_steps_every_newton_try_misses_are_landed_by_the_walk_on_their_own_lcp(
+        name: str, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Step 283 of the 20 dominoes under ``planar-pgs`` at 16 iterations (44 points) and step 312 of ``stack-40``
+    under ``planar-ngs`` at 4 (155 points): without Lemke's walk every try stalls above the tolerance (within
+    1e-9 m/s). The walk at the smallest perturbation ends on the answer itself, which is taken as it is
+    (a Newton round there, reading modes on their boundaries, left it)."""
+    from tests.planar.test_reference import _recorded
+
+    ((p, pn, pt),) = _recorded(name)
+    assert p.points <= pivoting.EXACT_POINTS
+    assert residual(p, *next(pivoting.starts(p))) < 1e-12
+    sol = reference.solve(p, pn, pt, interior=False)
+    assert residual(p, sol.pn, sol.pt) < 1e-10
+    assert np.array_equal(sol.velocity, velocities_after(p, sol.pn, sol.pt))
+    monkeypatch.setattr(pivoting, "starts", lambda problem: iter(()))
+    with pytest.raises(reference.ReferenceFailure) as failure:
+        reference.solve(p, pn, pt, interior=False)
+    assert 1e-10 < failure.value.best < 1e-9
