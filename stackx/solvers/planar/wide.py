@@ -262,13 +262,60 @@ def scatter(bodies: np.ndarray, sides: np.ndarray, record: np.ndarray, blk: np.u
 def normals(record: np.ndarray, begin: np.uint64, end: np.uint64, h: float, use_bias: bool, push_out: float,
             moved: bool) -> None:
     """Both points' normal visits in every lane of blocks ``begin`` to ``end``, the first point's then the
-    second's. A lane reads and writes its own numbers at fixed offsets from its block's start, so LLVM does
-    the lanes at once in vector registers, and the blocks' visits, independent of each other, overlap."""
+    second's, each block's separations measured again first when its bodies ``moved``. A lane reads and
+    writes its own numbers at fixed offsets from its block's start, so LLVM does the lanes at once in
+    vector registers, and the blocks' visits, independent of each other, overlap.
+
+    The speculative target ``-s / h`` of a point still apart is a division, which the vector registers do
+    for every lane and point whatever the lane's separation; a block with no point apart (a pile at rest:
+    every point sunk in) is visited without it, the same numbers."""
     for blk in range(begin, end):
-        for lane in range(np.uint64(LANES)):
-            at = blk * np.uint64(BLOCK) + lane
-            for q in range(2):
-                normal_visit(record, at, q, h, use_bias, push_out, moved)
+        if moved:
+            for lane in range(np.uint64(LANES)):
+                at = blk * np.uint64(BLOCK) + lane
+                for q in range(2):
+                    measure(record, at, q)
+                    normal_visit(record, at, q, h, use_bias, push_out, True)
+        elif apart(record, blk):
+            for lane in range(np.uint64(LANES)):
+                at = blk * np.uint64(BLOCK) + lane
+                for q in range(2):
+                    normal_visit(record, at, q, h, use_bias, push_out, True)
+        else:
+            for lane in range(np.uint64(LANES)):
+                at = blk * np.uint64(BLOCK) + lane
+                for q in range(2):
+                    normal_visit(record, at, q, h, use_bias, push_out, False)
+
+
+@inlined
+def measure(record: np.ndarray, at: np.uint64, q: int) -> None:
+    """Point ``q``'s separation in the lane whose fields start at ``at`` measured again from the bodies'
+    motion since the step began (gathered with the velocities): the normal is held, the anchors move and
+    turn with their bodies. A visit changes velocities, not motion, so a block's separations may all be
+    measured before its visits."""
+    p = at + np.uint64(q) * SECOND
+    nx, ny = record[p + R_NX], record[p + R_NY]
+    rax, ray = record[p + R_RAX], record[p + R_RAY]
+    rbx, rby = record[p + R_RBX], record[p + R_RBY]
+    ca, sa = record[at + R_CA], record[at + R_SA]
+    cb, sb = record[at + R_CB], record[at + R_SB]
+    sx = record[at + R_DXB] + (cb * rbx - sb * rby)
+    sy = record[at + R_DYB] + (sb * rbx + cb * rby)
+    sx -= record[at + R_DXA] + (ca * rax - sa * ray)
+    sy -= record[at + R_DYA] + (sa * rax + ca * ray)
+    record[p + R_S] = record[p + R_BASE] + sx * nx + sy * ny
+
+
+@inlined
+def apart(record: np.ndarray, blk: np.uint64) -> bool:
+    """Whether some point of the block is still apart (its separation positive): only then does a visit
+    aim at the speculative target. A lane without the point has a separation of 0."""
+    found = False
+    for lane in range(np.uint64(LANES)):
+        at = blk * np.uint64(BLOCK) + lane
+        found |= (record[at + R_S] > 0.0) | (record[at + SECOND + R_S] > 0.0)
+    return found
 
 
 @inlined
@@ -283,28 +330,19 @@ def frictions(record: np.ndarray, begin: np.uint64, end: np.uint64) -> None:
 
 @inlined
 def normal_visit(record: np.ndarray, at: np.uint64, q: int, h: float, use_bias: bool, push_out: float,
-                 moved: bool) -> None:
+                 apart: bool) -> None:
     """Point ``q``'s normal visit in the lane whose fields start at ``at`` (the soft step's visit, its
-    arithmetic in its order): the separation measured again from the bodies' motion since the step
-    began (when they ``moved`` since it was last measured), the soft or speculative target, the accumulated
-    normal impulse clamped at 0 and applied. What a lane without the point would change is kept by a
-    select."""
+    arithmetic in its order) at its separation as last measured (``measure``): the soft or speculative
+    target (no lane of the block is ``apart``: no speculative one), the accumulated normal impulse clamped
+    at 0 and applied. What a lane without the point would change is kept by a select."""
     p = at + np.uint64(q) * SECOND
     nx, ny = record[p + R_NX], record[p + R_NY]
     rax, ray = record[p + R_RAX], record[p + R_RAY]
     rbx, rby = record[p + R_RBX], record[p + R_RBY]
-    if moved:
-        ca, sa = record[at + R_CA], record[at + R_SA]
-        cb, sb = record[at + R_CB], record[at + R_SB]
-        sx = record[at + R_DXB] + (cb * rbx - sb * rby)
-        sy = record[at + R_DYB] + (sb * rbx + cb * rby)
-        sx -= record[at + R_DXA] + (ca * rax - sa * ray)
-        sy -= record[at + R_DYA] + (sa * rax + ca * ray)
-        record[p + R_S] = record[p + R_BASE] + sx * nx + sy * ny
     s = record[p + R_S]
     target, mass_scale, impulse_scale = 0.0, 1.0, 0.0
     if s > 0.0:
-        target = -s / h
+        target = -s / h if apart else 0.0
     elif use_bias:
         target = min(-record[at + R_BIAS] * s, push_out)
         mass_scale = record[at + R_SCALE]
