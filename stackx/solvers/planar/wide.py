@@ -262,13 +262,16 @@ def scatter(bodies: np.ndarray, sides: np.ndarray, record: np.ndarray, blk: np.u
 def normals(record: np.ndarray, begin: np.uint64, end: np.uint64, h: float, use_bias: bool, push_out: float,
             moved: bool) -> None:
     """Both points' normal visits in every lane of blocks ``begin`` to ``end``, the first point's then the
-    second's, each block's separations measured again first when its bodies ``moved``. A lane reads and
-    writes its own numbers at fixed offsets from its block's start, so LLVM does the lanes at once in
-    vector registers, and the blocks' visits, independent of each other, overlap.
+    second's, each point's separation measured again (``measure``) before its visit when the bodies ``moved``
+    since the last pass. A lane reads and writes its own numbers at fixed offsets from its block's start,
+    so LLVM does the lanes at once in vector registers, and the blocks' visits, independent of each other,
+    overlap.
 
     The speculative target ``-s / h`` of a point still apart is a division, which the vector registers do
-    for every lane and point whatever the lane's separation; a block with no point apart (a pile at rest:
-    every point sunk in) is visited without it, the same numbers."""
+    for every lane and point whatever the lane's separation. Where the separations were measured by an
+    earlier pass (the relax pass's serve the next substep's solve), a block with no point apart (a pile at
+    rest: every point sunk in) is visited without it, the same numbers; measuring first, to know, costs
+    more than the division in the passes that measure."""
     for blk in range(begin, end):
         if moved:
             for lane in range(np.uint64(LANES)):
@@ -292,8 +295,7 @@ def normals(record: np.ndarray, begin: np.uint64, end: np.uint64, h: float, use_
 def measure(record: np.ndarray, at: np.uint64, q: int) -> None:
     """Point ``q``'s separation in the lane whose fields start at ``at`` measured again from the bodies'
     motion since the step began (gathered with the velocities): the normal is held, the anchors move and
-    turn with their bodies. A visit changes velocities, not motion, so a block's separations may all be
-    measured before its visits."""
+    turn with their bodies."""
     p = at + np.uint64(q) * SECOND
     nx, ny = record[p + R_NX], record[p + R_NY]
     rax, ray = record[p + R_RAX], record[p + R_RAY]
