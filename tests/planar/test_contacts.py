@@ -145,6 +145,20 @@ def test_memory_finds_each_point_by_its_bodies_and_feature() -> None:
     assert np.copysign(1.0, table[drop, PN]) == 1.0 and np.copysign(1.0, table[drop, PT]) == 1.0  # +0, as cleared
 
 
+def test_memory_finds_corners_that_swapped_places_in_the_list() -> None:
+    s = world(SCENE)
+    ids, table, count = _table(s)
+    keys = np.array([[ids[k, A], ids[k, B], ids[k, FEATURE]] for k in range(count)], np.int64)
+    carried = np.stack([np.arange(count) + 1.0, -np.arange(count) - 1.0], axis=1)
+    two = next(k for k in range(count - 1) if tuple(keys[k, :2]) == tuple(keys[k + 1, :2]))
+    keys[[two, two + 1]] = keys[[two + 1, two]]  # a manifold's two corners listed the other way round last step
+    carried[[two, two + 1]] = carried[[two + 1, two]]
+    table[:count, PN] = table[:count, PT] = np.nan
+    recall(ids, table, count, keys, carried, count)
+    for k in range(count):  # every point gets its own impulses back, the swapped pair included
+        assert (table[k, PN], table[k, PT]) == (k + 1.0, -k - 1.0)
+
+
 def test_the_position_pass_measures_the_depth_where_the_box_has_turned_to() -> None:
     s = world([{"x": 0.0, "y": 0.49, "angle": 0.0}])
     ids, table, count = _table(s, margin=0.05)

@@ -335,10 +335,14 @@ def recall(ids: np.ndarray, table: np.ndarray, count: int, keys: np.ndarray, car
     """Warm start values: each point's impulses from the last step's point with the same ``(A, B, FEATURE)``,
     0 for a new point (written: the table's impulses need no clearing first). ``collide`` lists points by
     ``(A, B)`` in increasing order (the ground's first), and so does the memory, so one walk down both lists
-    finds every match."""
+    finds every match. A step lists each ``(A, B, FEATURE)`` once, so a point whose key is the memory's at
+    its own place (a pile at rest, the same corners touching) is that match, found without the walk."""
     j = 0
     for k in range(count):
         a, b, f = ids[k, A], ids[k, B], ids[k, FEATURE]
+        if k < held and keys[k, 0] == a and keys[k, 1] == b and keys[k, 2] == f:
+            table[k, PN], table[k, PT] = carried[k, 0], carried[k, 1]
+            continue
         while j < held and (keys[j, 0] < a or (keys[j, 0] == a and keys[j, 1] < b)):
             j += 1
         i = j
