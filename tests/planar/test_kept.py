@@ -11,6 +11,7 @@ import pytest
 
 from stackx.kernel import compiled
 from stackx.models.planar.state import PlanarState
+from stackx.solvers.planar.kept import Kept
 from stackx.solvers.planar.soft_step import PlanarSoftStep, PlanarSoftStepParams
 from tests.planar.hand_states import pyramid
 
@@ -78,8 +79,11 @@ def test_a_state_changed_between_calls_steps_as_if_its_contacts_were_found_afres
     (kept, kept_memory), (fresh, fresh_memory) = out
     for name in FIELDS:
         assert getattr(kept, name).tobytes() == getattr(fresh, name).tobytes(), name
-    for a, b in zip(kept_memory, fresh_memory):  # the same points found, with the same impulses
-        assert a.tobytes() == b.tobytes()
+    (keys, carried, held), (fresh_keys, fresh_carried, fresh_held) = kept_memory, fresh_memory
+    assert held.tobytes() == fresh_held.tobytes()  # the same points found, with the same impulses
+    n = held[0]
+    assert keys[0, :n].tobytes() == fresh_keys[0, :n].tobytes()
+    assert carried[0, :n].tobytes() == fresh_carried[0, :n].tobytes()
     assert not np.array_equal(kept.x, _pile().x)  # the pile moved: the steps did something
 
 
@@ -109,3 +113,36 @@ def test_a_batch_stepped_on_threads_equals_its_rows_stepped_alone() -> None:
         alone = step([b])
         for name in FIELDS:
             assert getattr(together, name)[b].tobytes() == getattr(alone, name)[0].tobytes(), (b, name)
+
+
+def test_a_fresh_solver_reads_nothing_of_its_rooms_but_what_it_wrote() -> None:
+    """The memory and the kept contacts are made empty, not cleared: a solver whose rooms hold anything
+    at all (points that look like the pile's, boxes where the pile's are, impulses not a number) steps, and
+    hands on, the numbers of one whose rooms are zeros."""
+    out = []
+    for poisoned in (False, True):
+        state, solver = _pile(), _solver()
+        solver.watch_impulses()
+        if poisoned:
+            keys, carried, _ = solver.memory(state)
+            keys[:] = np.arange(keys.size).reshape(keys.shape) % state.bodies
+            carried[:] = np.nan
+            kept = Kept(state.batch, state.bodies, keys.shape[1])
+            kept.ids[:] = keys
+            kept.points[:] = np.nan
+            kept.at[0] = np.stack([state.x[0], state.y[0], state.angle[0], state.hx[0], state.hy[0],
+                                   (state.inv_mass[0] == 0.0) * 1.0], axis=1)  # where the boxes are
+            kept.near[:, 1:] = 1
+            kept.fat[:] = [-np.inf, np.inf, -np.inf, np.inf]  # bounds no box leaves
+            solver.kept = kept
+        with compiled(True):
+            solver.advance(state, 3)
+            solver.advance(state, 3)
+        impulses = solver.step_impulses(0)
+        assert impulses is not None
+        out.append((state, impulses))
+    (clean, clean_impulses), (dirty, dirty_impulses) = out
+    for name in FIELDS:
+        assert getattr(clean, name).tobytes() == getattr(dirty, name).tobytes(), name
+    assert clean_impulses.keys.tobytes() == dirty_impulses.keys.tobytes()
+    assert clean_impulses.pn.tobytes() == dirty_impulses.pn.tobytes()

@@ -36,6 +36,13 @@ def solver(name: str, params: dict[str, Any] | None = None, g: float = G, dt: fl
     return cls([cls.Params(**(params or {}))], np.array([g]), np.array([dt]))
 
 
+def held_memory(solver: Any, state: PlanarState) -> list[tuple[bytes, bytes]]:
+    """Per row, the keys and impulses a memory solver holds for its next step, as bytes: a row's memory is
+    read only up to its ``held`` (the rest of the room is whatever was there)."""
+    keys, carried, count = solver.memory(state)
+    return [(keys[b, :count[b]].tobytes(), carried[b, :count[b]].tobytes()) for b in range(state.batch)]
+
+
 def run(name: str, state: PlanarState, steps: int, params: dict[str, Any] | None = None, g: float = G,
         compiled: bool | None = None) -> PlanarState:
     """Step ``state`` in place (plain, compiled, or the kernel's default when ``compiled`` is None)."""

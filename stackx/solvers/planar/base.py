@@ -86,11 +86,13 @@ class PlanarMemorySolver(PlanarSolver):
         self.held: np.ndarray | None = None
 
     def memory(self, state: PlanarState) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """``(keys, carried, held)``, empty the first time (or when the state's shape changed)."""
+        """``(keys, carried, held)``, empty the first time (or when the state's shape changed). A row's
+        points are read only up to its ``held``, so the room is made empty, not cleared: clearing it (4 MB
+        for 64 rows of 210 boxes) took up to a millisecond and a half of a fresh solver's first call."""
         room = contact_room(state.bodies)
         if self.keys is None or self.keys.shape[:2] != (state.batch, room):
-            self.keys = np.zeros((state.batch, room, 3), np.int64)
-            self.carried = np.zeros((state.batch, room, 2))
+            self.keys = np.empty((state.batch, room, 3), np.int64)
+            self.carried = np.empty((state.batch, room, 2))
             self.held = np.zeros(state.batch, np.int64)
         assert self.carried is not None and self.held is not None
         return self.keys, self.carried, self.held
