@@ -180,3 +180,42 @@ def test_rows_stepped_together_give_each_rows_numbers_alone() -> None:
         assert got.keys.tobytes() == want.keys.tobytes() and got.pn.tobytes() == want.pn.tobytes(), b
         assert got.pt.tobytes() == want.pt.tobytes(), b
     assert np.abs(together.w).max() > 0.1  # the piles still tumble: the comparison has something to see
+
+
+def test_the_workspace_kept_from_call_to_call_gives_the_numbers_of_a_fresh_one() -> None:
+    """The solver keeps its threads' contact tables and blocks from one call to the next
+    (``soft_step.Workspace``): on rows of different substeps (groups of several sizes), a call on boxes
+    apart on the ground (few blocks), calls of 4 and 2 steps on piles of as many boxes (the blocks grow),
+    one after a box is taken away (less room: made again) give the bytes of the same calls each in a
+    workspace made afresh."""
+    from stackx.kernel import threads
+    from stackx.models.planar.state import PlanarState
+
+    def without(state: PlanarState, box: int) -> PlanarState:
+        return PlanarState(*(np.delete(getattr(state, name), box, axis=1) for name in PlanarState.BODY))
+
+    def calls(fresh: bool) -> list[PlanarState]:
+        solver = PlanarSoftStep([PlanarSoftStepParams(substeps=s) for s in (4, 4, 3, 4, 4)], np.full(5, -G),
+                                np.full(5, DT))
+        piles = PlanarState.concat([pyramid(4, mu=0.4, jitter=0.1, seed=seed) for seed in range(5)])
+        piles.vx[:] = np.linspace(-0.5, 0.5, piles.bodies)
+        apart = piles.copy()
+        apart.x[:], apart.y[:], apart.angle[:] = 2.0 * np.arange(piles.bodies), 0.5, 0.0
+        done = []
+        with compiled(True), threads(1):
+            for state, steps in ((apart, 1), (piles, 4), (piles, 2)):
+                if fresh:
+                    solver.work = None
+                solver.advance(state, steps)
+                done.append(state.copy())
+            solver.remove_box(piles, 3)
+            fewer = without(piles, 3)
+            if fresh:
+                solver.work = None
+            solver.advance(fewer, 3)
+            done.append(fewer)
+        return done
+
+    for kept, fresh in zip(calls(False), calls(True)):
+        for name in PlanarState.FIELDS:
+            assert getattr(kept, name).tobytes() == getattr(fresh, name).tobytes(), name

@@ -69,7 +69,7 @@ from stackx.solvers.planar.kept import Kept, keep, take_back
 from stackx.solvers.planar.contacts import (COLUMNS, PN, PT, find_contacts_near, near_workspace, observe_contacts,
                                             recall, same_pairs)
 from stackx.solvers.planar.wavefront import manifold_starts, wavefronts
-from stackx.solvers.planar.wide import (BODY_COLUMNS, COS, D_X, D_Y, LANES, SIN, V_W, V_X, V_Y,
+from stackx.solvers.planar.wide import (BLOCK, BODY_COLUMNS, COS, D_X, D_Y, LANES, SIN, V_W, V_X, V_Y,
                                         add_applied, block_workspace, effective_masses, empty_lanes,
                                         lay_out, place_waves, remember_laid, soft_pass, warm_start)
 from stackx.solvers.column.soft_step import STATIC_HERTZ, SoftStepParams, soft
@@ -92,6 +92,40 @@ class PlanarSoftStepParams(SoftStepParams):
     warm_start: bool = Field(True, description="start each step from the impulses the same points carried at "
                                                "the end of the last one: off rebuilds every load from zero, and "
                                                "a tall stack sinks and sways")
+
+
+class Workspace:
+    """What ``soft_step_advance``'s threads step their rows in, kept by the solver from one call to the next
+    (made again when the threads or the room change): per thread, ``GROUP`` contact tables of ``room``
+    points (``ids``, ``tables``) and blocks for ``blocks`` blocks (``record``, ``sides``,
+    ``wide.block_workspace``), which grow to what the last call needed. Everything a call reads there it
+    has written first, so a call steps as in fresh memory; made afresh by every call, the megabytes of a
+    large batch's tables and blocks were faulted in page by page each time (on 64 rows of a 20-row pyramid
+    stepped a step a call, about 2% of the step). Unfilled (``contact_workspace`` zeroes its tables): zeroing
+    a pile's room costs more than its bookkeeping."""
+
+    def __init__(self, threads: int, room: int, blocks: int = 1) -> None:
+        self.ids = np.empty((threads, GROUP, room, 3), np.int64)
+        self.tables = np.empty((threads, GROUP, room, COLUMNS))
+        self.record = np.empty((threads, blocks * BLOCK))
+        self.sides = np.empty((threads, blocks * LANES, 2), np.uint64)
+        self.used = np.zeros(threads, np.int64)  # the blocks each thread stepped in, by the last call
+
+    def fits(self, threads: int, room: int) -> bool:
+        """Whether this has tables for ``threads`` threads of ``room`` points."""
+        return self.ids.shape[:3] == (threads, GROUP, room)
+
+    def arrays(self) -> tuple[np.ndarray, ...]:
+        """``(ids, tables, record, sides, used)``, as ``soft_step_advance`` takes them."""
+        return self.ids, self.tables, self.record, self.sides, self.used
+
+    def grow(self) -> None:
+        """Blocks for as many as the last call grew to, where a thread needed more than there were."""
+        most = int(self.used.max())
+        if most * LANES > self.sides.shape[1]:
+            threads = self.ids.shape[0]
+            self.record = np.empty((threads, most * BLOCK))
+            self.sides = np.empty((threads, most * LANES, 2), np.uint64)
 
 
 @kernel
@@ -162,7 +196,9 @@ def soft_step_advance(x: np.ndarray, y: np.ndarray, angle: np.ndarray, vx: np.nd
                       held: np.ndarray, applied: np.ndarray, kept_ids: np.ndarray, kept_points: np.ndarray,
                       kept_count: np.ndarray, kept_at: np.ndarray, kept_near: np.ndarray, kept_fat: np.ndarray,
                       last: np.ndarray, peak: np.ndarray, reach: np.ndarray, touched: np.ndarray,
-                      launch: np.ndarray, groups: np.ndarray, chunks: np.ndarray, steps: int) -> None:
+                      launch: np.ndarray, groups: np.ndarray, chunks: np.ndarray, ids_room: np.ndarray,
+                      table_room: np.ndarray, records: np.ndarray, sides_room: np.ndarray, used: np.ndarray,
+                      steps: int) -> None:
     """``steps`` steps of every batch row, in place, the rows ``groups[i]`` to ``groups[i + 1]`` stepped
     together (``step_rows``), the groups ``chunks[t]`` to ``chunks[t + 1]`` one after the other on one thread;
     ``keys``, ``carried`` and ``held`` carry each row's points and impulses from one step (and one call) to
@@ -170,24 +206,27 @@ def soft_step_advance(x: np.ndarray, y: np.ndarray, angle: np.ndarray, vx: np.nd
     for them (``watch_impulses``), else nothing; the ``kept_`` arrays (``kept.Kept``) carry the contacts
     found where a call ends to the next call.
 
-    A chunk's groups share one set of contact tables and blocks, made once: memory taken afresh for every
-    group would be handed back to the system and faulted in again page by page, which on 64 rows of a
-    20-row pyramid cost about a tenth of a step."""
+    Thread ``t`` steps its chunk in its own contact tables ``ids_room[t, r]``, ``table_room[t, r]`` and
+    blocks ``records[t]``, ``sides_room[t]`` (``Workspace``), grown for the call when they are too small;
+    ``used[t]`` gets the blocks it stepped in.
+
+    A chunk's groups share one set of contact tables and blocks: memory taken afresh for every group would
+    be handed back to the system and faulted in again page by page, which on 64 rows of a 20-row pyramid
+    cost about a tenth of a step."""
     for t in prange(chunks.shape[0] - 1):
         most = 1
         for i in range(chunks[t], chunks[t + 1]):
             most = max(most, groups[i + 1] - groups[i])
-        # the contact tables unfilled (``contact_workspace`` zeroes them): a step reads only what ``collide``
-        # and the step itself write, and zeroing a pile's room costs a call more than its bookkeeping
-        ids_of = [np.empty((keys.shape[1], 3), np.int64) for _ in range(most)]
-        table_of = [np.empty((keys.shape[1], COLUMNS)) for _ in range(most)]
-        record, sides = block_workspace(1)  # grown to the steps' blocks at their first lay-out
+        ids_of = [ids_room[t, r] for r in range(most)]
+        table_of = [table_room[t, r] for r in range(most)]
+        record, sides = records[t], sides_room[t]
         for i in range(chunks[t], chunks[t + 1]):
             record, sides = step_rows(groups[i], groups[i + 1], x, y, angle, vx, vy, w, inv_mass, inv_inertia, hx,
                                       hy, friction, g, dt, substeps, hertz, damping_ratio, push_out, relax, warm,
                                       speculative, keys, carried, held, applied, kept_ids, kept_points, kept_count,
                                       kept_at, kept_near, kept_fat, last, peak, reach, touched, launch, ids_of,
                                       table_of, record, sides, steps)
+        used[t] = sides.shape[0] // LANES
 
 
 @kernel
@@ -337,6 +376,7 @@ class PlanarSoftStep(PlanarMemorySolver):
         self.speculative = self.column("speculative")
         self.applied: np.ndarray | None = None  # per row and point, what the last step applied (applied.py)
         self.kept: Kept | None = None  # per row, the contacts found where the last call ended (kept.py)
+        self.work: Workspace | None = None  # per thread, the tables and blocks the calls step in
 
     @classmethod
     def passes(cls, params: PlanarSoftStepParams) -> int:
@@ -367,10 +407,13 @@ class PlanarSoftStep(PlanarMemorySolver):
         groups = self.row_groups(s.x)
         threads = spread(s.x)  # the groups split evenly over the threads, as numba splits a prange
         chunks = (np.arange(threads + 1) * (len(groups) - 1)) // threads
+        if self.work is None or not self.work.fits(threads, keys.shape[1]):
+            self.work = Workspace(threads, keys.shape[1])
         soft_step_advance(s.x, s.y, s.angle, s.vx, s.vy, s.w, s.inv_mass, s.inv_inertia, s.hx, s.hy, s.friction,
                           self.gravity, self.dt, self.substeps, self.hertz, self.damping_ratio, self.push_out,
                           self.relax, self.warm, self.speculative, keys, carried, held, self.applied,
-                          *self.kept.arrays(), *s.monitors(), groups, chunks, steps)
+                          *self.kept.arrays(), *s.monitors(), groups, chunks, *self.work.arrays(), steps)
+        self.work.grow()
 
     def row_groups(self, x: np.ndarray) -> np.ndarray:
         """Which rows ``soft_step_advance`` steps together: runs of consecutive rows, at most ``GROUP`` and no
