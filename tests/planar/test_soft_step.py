@@ -183,11 +183,12 @@ def test_rows_stepped_together_give_each_rows_numbers_alone() -> None:
 
 
 def test_the_workspace_kept_from_call_to_call_gives_the_numbers_of_a_fresh_one() -> None:
-    """The solver keeps its threads' contact tables and blocks from one call to the next
-    (``soft_step.Workspace``): on rows of different substeps (groups of several sizes), a call on boxes
-    apart on the ground (few blocks), calls of 4 and 2 steps on piles of as many boxes (the blocks grow),
-    one after a box is taken away (less room: made again) give the bytes of the same calls each in a
-    workspace made afresh."""
+    """The solver keeps its threads' contact tables and blocks and its rows' wave orders from one call to the
+    next (``soft_step.Workspace``, ``soft_step.WaveOrders``): on rows of different substeps (groups of
+    several sizes), a call on boxes apart on the ground (few blocks), calls of 4 and 2 steps on piles of as
+    many boxes (the blocks grow; the orders found by the first call serve the second's resting rows), one
+    after a box is taken away (less room: made again) give the bytes of the same calls each in a workspace
+    and orders made afresh."""
     from stackx.kernel import threads
     from stackx.models.planar.state import PlanarState
 
@@ -205,13 +206,13 @@ def test_the_workspace_kept_from_call_to_call_gives_the_numbers_of_a_fresh_one()
         with compiled(True), threads(1):
             for state, steps in ((apart, 1), (piles, 4), (piles, 2)):
                 if fresh:
-                    solver.work = None
+                    solver.work, solver.orders = None, None
                 solver.advance(state, steps)
                 done.append(state.copy())
             solver.remove_box(piles, 3)
             fewer = without(piles, 3)
             if fresh:
-                solver.work = None
+                solver.work, solver.orders = None, None
             solver.advance(fewer, 3)
             done.append(fewer)
         return done

@@ -109,34 +109,64 @@ class Workspace:
         self.tables = np.empty((threads, GROUP, room, COLUMNS))
         self.record = np.empty((threads, blocks * BLOCK))
         self.sides = np.empty((threads, blocks * LANES, 2), np.uint64)
-        self.used = np.zeros(threads, np.int64)  # the blocks each thread stepped in, by the last call
+        self.blocks = np.zeros(threads, np.int64)  # the blocks each thread stepped in, by the last call
 
     def fits(self, threads: int, room: int) -> bool:
         """Whether this has tables for ``threads`` threads of ``room`` points."""
         return self.ids.shape[:3] == (threads, GROUP, room)
 
     def arrays(self) -> tuple[np.ndarray, ...]:
-        """``(ids, tables, record, sides, used)``, as ``soft_step_advance`` takes them."""
-        return self.ids, self.tables, self.record, self.sides, self.used
+        """``(ids, tables, record, sides, blocks)``, as ``soft_step_advance`` takes them."""
+        return self.ids, self.tables, self.record, self.sides, self.blocks
 
     def grow(self) -> None:
         """Blocks for as many as the last call grew to, where a thread needed more than there were."""
-        most = int(self.used.max())
+        most = int(self.blocks.max())
         if most * LANES > self.sides.shape[1]:
             threads = self.ids.shape[0]
             self.record = np.empty((threads, most * BLOCK))
             self.sides = np.empty((threads, most * LANES, 2), np.uint64)
 
 
+class WaveOrders:
+    """Per batch row, the wave order of its last step's manifolds (``wavefront``), kept by the solver from
+    one call to the next (made again with the memory): ``first``, ``order``, ``tally`` and ``waves`` as
+    ``wavefronts`` leaves them, and ``ordered``, the points they are for (-1: none). A step whose points are
+    between the same bodies as the memory's (``contacts.same_pairs``) takes the order as it is: it was found
+    for those pairs, whichever call found it (a pile at rest stepped a step a call orders its manifolds
+    once, not once a call)."""
+
+    def __init__(self, batch: int, room: int) -> None:
+        self.first = np.empty((batch, room + 1), np.int64)
+        self.order = np.empty((batch, room), np.int64)
+        self.tally = np.empty((batch, room + 1), np.int64)
+        self.waves = np.zeros(batch, np.int64)
+        self.ordered = np.full(batch, -1, np.int64)
+
+    def fits(self, batch: int, room: int) -> bool:
+        """Whether this holds the orders of ``batch`` rows of ``room`` points."""
+        return self.order.shape == (batch, room)
+
+    def arrays(self) -> tuple[np.ndarray, ...]:
+        """``(first, order, tally, waves, ordered)``, as ``soft_step_advance`` takes them."""
+        return self.first, self.order, self.tally, self.waves, self.ordered
+
+
 @kernel
-def pass_workspace(room: int, worlds: int) -> tuple[np.ndarray, ...]:
-    """Room for the layout of ``worlds`` worlds of at most ``room`` points each: ``(first, order, wave, tally,
-    place, slots)``, one row a world (``wavefront``'s scratch, ``wide.place_waves``' lanes and ``wide.lay_out``'s
-    point slots), and ``(ends, used)``, the layout's (``wide.place_waves``)."""
+def order_workspace(room: int, worlds: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Room for the wave orders of ``worlds`` worlds of at most ``room`` points each: ``(first, order,
+    tally)``, one row a world (``WaveOrders``')."""
     return (np.empty((worlds, room + 1), np.int64), np.empty((worlds, room), np.int64),
-            np.empty((worlds, room), np.int64), np.empty((worlds, room + 1), np.int64),
-            np.empty((worlds, room + 1), np.int64), np.empty((worlds, room), np.uint64),
-            np.empty(room + 1, np.uint64), np.empty(room + 1, np.int64))
+            np.empty((worlds, room + 1), np.int64))
+
+
+@kernel
+def lane_workspace(room: int, worlds: int) -> tuple[np.ndarray, ...]:
+    """Room for the layout of ``worlds`` worlds of at most ``room`` points each: ``(wave, place, slots)``, one
+    row a world (``wavefront``'s scratch, ``wide.place_waves``' lanes and ``wide.lay_out``'s point slots), and
+    ``(ends, used)``, the layout's (``wide.place_waves``)."""
+    return (np.empty((worlds, room), np.int64), np.empty((worlds, room + 1), np.int64),
+            np.empty((worlds, room), np.uint64), np.empty(room + 1, np.uint64), np.empty(room + 1, np.int64))
 
 
 @leaf
@@ -197,8 +227,9 @@ def soft_step_advance(x: np.ndarray, y: np.ndarray, angle: np.ndarray, vx: np.nd
                       kept_count: np.ndarray, kept_at: np.ndarray, kept_near: np.ndarray, kept_fat: np.ndarray,
                       last: np.ndarray, peak: np.ndarray, reach: np.ndarray, touched: np.ndarray,
                       launch: np.ndarray, groups: np.ndarray, chunks: np.ndarray, ids_room: np.ndarray,
-                      table_room: np.ndarray, records: np.ndarray, sides_room: np.ndarray, used: np.ndarray,
-                      steps: int) -> None:
+                      table_room: np.ndarray, records: np.ndarray, sides_room: np.ndarray, blocks: np.ndarray,
+                      first: np.ndarray, order: np.ndarray, tally: np.ndarray, waves: np.ndarray,
+                      ordered: np.ndarray, steps: int) -> None:
     """``steps`` steps of every batch row, in place, the rows ``groups[i]`` to ``groups[i + 1]`` stepped
     together (``step_rows``), the groups ``chunks[t]`` to ``chunks[t + 1]`` one after the other on one thread;
     ``keys``, ``carried`` and ``held`` carry each row's points and impulses from one step (and one call) to
@@ -208,7 +239,8 @@ def soft_step_advance(x: np.ndarray, y: np.ndarray, angle: np.ndarray, vx: np.nd
 
     Thread ``t`` steps its chunk in its own contact tables ``ids_room[t, r]``, ``table_room[t, r]`` and
     blocks ``records[t]``, ``sides_room[t]`` (``Workspace``), grown for the call when they are too small;
-    ``used[t]`` gets the blocks it stepped in.
+    ``blocks[t]`` gets the blocks it stepped in. ``first`` to ``ordered`` hold each row's wave order
+    (``WaveOrders``).
 
     A chunk's groups share one set of contact tables and blocks: memory taken afresh for every group would
     be handed back to the system and faulted in again page by page, which on 64 rows of a 20-row pyramid
@@ -221,12 +253,14 @@ def soft_step_advance(x: np.ndarray, y: np.ndarray, angle: np.ndarray, vx: np.nd
         table_of = [table_room[t, r] for r in range(most)]
         record, sides = records[t], sides_room[t]
         for i in range(chunks[t], chunks[t + 1]):
-            record, sides = step_rows(groups[i], groups[i + 1], x, y, angle, vx, vy, w, inv_mass, inv_inertia, hx,
-                                      hy, friction, g, dt, substeps, hertz, damping_ratio, push_out, relax, warm,
-                                      speculative, keys, carried, held, applied, kept_ids, kept_points, kept_count,
-                                      kept_at, kept_near, kept_fat, last, peak, reach, touched, launch, ids_of,
-                                      table_of, record, sides, steps)
-        used[t] = sides.shape[0] // LANES
+            lo, hi = groups[i], groups[i + 1]
+            record, sides = step_rows(lo, hi, x, y, angle, vx, vy, w, inv_mass, inv_inertia, hx, hy, friction, g,
+                                      dt, substeps, hertz, damping_ratio, push_out, relax, warm, speculative, keys,
+                                      carried, held, applied, kept_ids, kept_points, kept_count, kept_at, kept_near,
+                                      kept_fat, last, peak, reach, touched, launch, ids_of, table_of, record,
+                                      sides, first[lo:hi], order[lo:hi], tally[lo:hi], waves[lo:hi],
+                                      ordered[lo:hi], steps)
+        blocks[t] = sides.shape[0] // LANES
 
 
 @kernel
@@ -238,7 +272,8 @@ def step_rows(lo: int, hi: int, x: np.ndarray, y: np.ndarray, angle: np.ndarray,
               applied: np.ndarray, kept_ids: np.ndarray, kept_points: np.ndarray, kept_count: np.ndarray,
               kept_at: np.ndarray, kept_near: np.ndarray, kept_fat: np.ndarray, last: np.ndarray, peak: np.ndarray,
               reach: np.ndarray, touched: np.ndarray, launch: np.ndarray, ids_of: list[np.ndarray],
-              table_of: list[np.ndarray], record: np.ndarray, sides: np.ndarray,
+              table_of: list[np.ndarray], record: np.ndarray, sides: np.ndarray, first: np.ndarray,
+              order: np.ndarray, tally: np.ndarray, waves: np.ndarray, ordered: np.ndarray,
               steps: int) -> tuple[np.ndarray, np.ndarray]:
     """``steps`` steps of rows ``lo`` to ``hi``, which share their substep, number of substeps, relax and
     push-out (``row_groups``): each row finds, recalls and orders its contacts alone, and the passes run over
@@ -247,7 +282,9 @@ def step_rows(lo: int, hi: int, x: np.ndarray, y: np.ndarray, angle: np.ndarray,
     stepping the row alone gives; a pass over several worlds keeps more independent visits in flight (a
     pass over one pyramid waits on its chain of waves). Row ``r`` of the group uses the contact table
     ``ids_of[r]``, ``table_of[r]`` (replaced by a larger one when its points outgrow it), and the blocks are
-    ``record`` and ``sides`` (``wide.block_workspace``), grown when too small; returns the blocks."""
+    ``record`` and ``sides`` (``wide.block_workspace``), grown when too small; returns the blocks. The rows'
+    wave orders are ``first`` to ``ordered`` (``WaveOrders``), replaced for the call by room for more when
+    a row's points outgrow them (and then marked as none when it ends)."""
     worlds = hi - lo
     n = x.shape[1]
     h = dt[lo] / substeps[lo]
@@ -261,12 +298,11 @@ def step_rows(lo: int, hi: int, x: np.ndarray, y: np.ndarray, angle: np.ndarray,
     near_of = [np.empty(0, np.int64) for _ in range(worlds)]  # the broad phase's candidates, kept while the
     fat_of = [np.empty((0, 4)) for _ in range(worlds)]  # boxes stay near (``near_workspace``, below)
     count = np.empty(worlds, np.int64)
-    waves = np.empty(worlds, np.int64)
     room = 0
     for r in range(worlds):
         room = max(room, ids_of[r].shape[0])
-    first, order, wave, tally, place, slots, ends, used = pass_workspace(room, worlds)
-    ordered = np.full(worlds, -1, np.int64)  # per row: the points its wave order is for (-1: none yet)
+    wave, place, slots, ends, used = lane_workspace(room, worlds)
+    kept_orders = True  # whether the orders are the ones kept for the next call
     latest = np.empty(n, np.int64)
     start = np.empty((worlds * n, 3))  # where each body was when the step began
     bodies = np.empty((worlds * n + 1, BODY_COLUMNS))  # row r's bodies from r n on, the ground's last
@@ -288,9 +324,11 @@ def step_rows(lo: int, hi: int, x: np.ndarray, y: np.ndarray, angle: np.ndarray,
         kept_pairs = True  # whether every row's manifolds are the last step's, in the same order
         for r in range(worlds):
             room = max(room, ids_of[r].shape[0])
-        if order.shape[1] < room:
-            first, order, wave, tally, place, slots, ends, used = pass_workspace(room, worlds)
+        if order.shape[1] < room or wave.shape[1] < room:
             ordered[:] = -1
+            first, order, tally = order_workspace(room, worlds)
+            wave, place, slots, ends, used = lane_workspace(room, worlds)
+            kept_orders = False
         for r in range(worlds):
             b, ids, table = lo + r, ids_of[r], table_of[r]
             # the last step's pairs again (a pile at rest): the same manifolds, so the wave order found for them
@@ -356,6 +394,8 @@ def step_rows(lo: int, hi: int, x: np.ndarray, y: np.ndarray, angle: np.ndarray,
         kept_count[b] = keep(x[b], y[b], angle[b], hx[b], hy[b], inv_mass[b], ids_of[r], table_of[r], count[r],
                              near_of[r], fat_of[r], kept_ids[b], kept_points[b], kept_at[b], kept_near[b],
                              kept_fat[b])
+    if not kept_orders:  # found in room made for this call: none kept for the next
+        ordered[:] = -1
     return record, sides
 
 
@@ -377,6 +417,7 @@ class PlanarSoftStep(PlanarMemorySolver):
         self.applied: np.ndarray | None = None  # per row and point, what the last step applied (applied.py)
         self.kept: Kept | None = None  # per row, the contacts found where the last call ended (kept.py)
         self.work: Workspace | None = None  # per thread, the tables and blocks the calls step in
+        self.orders: WaveOrders | None = None  # per row, the wave order of its last step
 
     @classmethod
     def passes(cls, params: PlanarSoftStepParams) -> int:
@@ -392,9 +433,11 @@ class PlanarSoftStep(PlanarMemorySolver):
         return StepImpulses(held.keys, self.applied[b, :n, 0].copy(), self.applied[b, :n, 1].copy())
 
     def remove_box(self, state: PlanarState, box: int) -> None:
-        """``PlanarMemorySolver``'s, and the kept contacts forgotten: the boxes after ``box`` are renumbered."""
+        """``PlanarMemorySolver``'s, and the kept contacts and wave orders forgotten: the boxes after ``box``
+        are renumbered."""
         super().remove_box(state, box)
         self.kept = None
+        self.orders = None
 
     def advance(self, state: PlanarState, steps: int) -> None:
         s = state
@@ -409,10 +452,13 @@ class PlanarSoftStep(PlanarMemorySolver):
         chunks = (np.arange(threads + 1) * (len(groups) - 1)) // threads
         if self.work is None or not self.work.fits(threads, keys.shape[1]):
             self.work = Workspace(threads, keys.shape[1])
+        if self.orders is None or not self.orders.fits(s.batch, keys.shape[1]):
+            self.orders = WaveOrders(s.batch, keys.shape[1])
         soft_step_advance(s.x, s.y, s.angle, s.vx, s.vy, s.w, s.inv_mass, s.inv_inertia, s.hx, s.hy, s.friction,
                           self.gravity, self.dt, self.substeps, self.hertz, self.damping_ratio, self.push_out,
                           self.relax, self.warm, self.speculative, keys, carried, held, self.applied,
-                          *self.kept.arrays(), *s.monitors(), groups, chunks, *self.work.arrays(), steps)
+                          *self.kept.arrays(), *s.monitors(), groups, chunks, *self.work.arrays(),
+                          *self.orders.arrays(), steps)
         self.work.grow()
 
     def row_groups(self, x: np.ndarray) -> np.ndarray:
