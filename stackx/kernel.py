@@ -31,9 +31,10 @@ import correct``), not as attributes of a module, and read module constants as n
 Compiled code is cached under ``STACKX_CACHE_DIR`` (default ``$XDG_CACHE_HOME/stackx``, else
 ``~/.cache/stackx``; numba falls back to its own places when that is not writable), which works the same
 for an installed package and a clone. Each build's folder is named by a hash of its flags, its module, its source file
-and those of the kernels it calls: numba itself checks only the function's own file and keys a build by
-its signature alone, so a change to ``correct`` or ``observe`` would otherwise leave every solver loading
-stale code, and a parallel build could be loaded where the serial one was asked for.
+and those of the kernels it calls, and the values of the module constants they read: numba itself checks only
+the function's own file and keys a build by its signature alone, so a change to ``correct`` or ``observe``, or
+to a column number imported from another file, would otherwise leave every solver loading stale code, and a
+parallel build could be loaded where the serial one was asked for.
 
 Parallel builds run on numba's ``workqueue`` threads unless ``NUMBA_THREADING_LAYER`` names another layer:
 OpenMP threads spin at the end of every parallel call, and on a machine with more busy processes than
@@ -154,6 +155,7 @@ class Kernel(Generic[P, R]):
         self.inline = inline
         self.parallel = any(fn.__globals__.get(name) is prange for name in fn.__code__.co_names)
         self.sources = {fn.__code__.co_filename}  # and, once compiled, the files of the kernels it calls
+        self.constants = frozen(fn)  # and, once compiled, those of the kernels it calls
         self._plain: Callable[P, R] | None = None
         self._builds: dict[bool, Any] = {}
         functools.update_wrapper(self, fn)
@@ -199,6 +201,7 @@ class Kernel(Generic[P, R]):
             for name, k in self._callees().items():
                 names[name] = k.build()
                 self.sources |= k.sources
+                self.constants |= k.constants
             for name in self.py_func.__code__.co_names:
                 if self.py_func.__globals__.get(name) is prange:
                     names[name] = numba.prange if parallel else range
@@ -211,7 +214,8 @@ class Kernel(Generic[P, R]):
                 flags["inline"] = "always"
             # numba's cached code names the module it was compiled in and imports it when loaded: a file
             # imported under another module name (a local plugin) needs a build of its own
-            with _cache_dir(numba, self.sources, {**flags, "module": self.py_func.__module__}):
+            with _cache_dir(numba, self.sources, {**flags, "module": self.py_func.__module__,
+                                                  "constants": sorted(self.constants)}):
                 self._builds[parallel] = numba.njit(**flags)(self._twin(names))
         return self._builds[parallel]
 
@@ -264,6 +268,30 @@ def inlined(fn: Callable[P, R]) -> Kernel[P, R]:
     and impulses it inlines in turn) is called, and the call passes its twenty arguments and its result
     through memory, which on a pass over a pile costs a tenth of the pass. Same code, same numbers."""
     return Kernel(fn, counted=False, inline=True)
+
+
+def frozen(fn: Callable[..., Any]) -> set[str]:
+    """The module constants ``fn`` reads, each as ``module.name=value``: numba compiles their values into the
+    code, so a constant imported from another file (a table's column numbers) must key the cache as its
+    file would. Numbers, strings and tuples of them by their repr (which is the same in every process);
+    arrays by a hash of their bytes."""
+    import numpy as np
+
+    def plain(value: Any) -> bool:
+        return isinstance(value, (bool, int, float, complex, str, np.generic)) or (
+            isinstance(value, tuple) and all(plain(v) for v in value))
+
+    out = set()
+    for name in fn.__code__.co_names:
+        value = fn.__globals__.get(name)
+        if plain(value):
+            shown = repr(value)
+        elif isinstance(value, np.ndarray):
+            shown = f"{value.dtype}{value.shape}:{hashlib.sha1(value.tobytes()).hexdigest()}"
+        else:
+            continue
+        out.add(f"{fn.__module__}.{name}={shown}")
+    return out
 
 
 def cache_root() -> Path:

@@ -46,6 +46,33 @@ def test_changing_a_called_kernel_does_not_load_stale_compiled_code(tmp_path: Pa
     assert _compiled_result(tmp_path, cache) == "7.0"
 
 
+SCALED = '''
+from stackx.kernel import kernel
+from scales import FACTOR
+
+@kernel
+def scaled(x: float) -> float:
+    return FACTOR * x
+'''
+
+
+def test_changing_a_constant_imported_from_another_file_does_not_load_stale_compiled_code(tmp_path: Path) -> None:
+    """numba compiles a module constant's value into the code; the cache folder is keyed by the value, so a
+    changed constant in a file the kernel only imports from is seen."""
+    (tmp_path / "caller.py").write_text(SCALED)
+    code = "import sys; sys.path.insert(0, sys.argv[1]); from caller import scaled; print(scaled(1.0))"
+    cache = tmp_path / "cache"
+    env = {**os.environ, "STACKX_JIT": "1", "STACKX_CACHE_DIR": str(cache)}
+    answers = []
+    for factor in (3, 5):
+        (tmp_path / "scales.py").write_text(f"FACTOR = {factor}\n")  # the kernel's file is untouched
+        done = subprocess.run([sys.executable, "-c", code, str(tmp_path)], capture_output=True, text=True,
+                              check=True, env=env, cwd=REPO)
+        answers.append(done.stdout.strip())
+    assert answers == ["3.0", "5.0"]
+    assert any(cache.rglob("caller.scaled-*.nbi"))  # it was cached
+
+
 def _imports_numba(config: Path, jit: str | None, out: Path) -> bool:
     code = textwrap.dedent("""
         import sys
