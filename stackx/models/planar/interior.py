@@ -87,7 +87,8 @@ def central_path(values: np.ndarray, columns: np.ndarray, k: np.ndarray, cone: n
     fp, fm = np.where(rough > 0.0, cone, 1.0), np.where(rough > 0.0, cone, 1.0)
     if start is not None:  # the given impulses, each pair moved INSIDE off its bound
         qn = np.maximum(start[:m], 0.0) + INSIDE
-        qt = np.clip(start[m:], -cone * qn + INSIDE, cone * qn - INSIDE) * rough
+        inside = np.minimum(INSIDE, 0.5 * cone * qn)  # a narrow box (low friction) keeps its middle half
+        qt = np.clip(start[m:], -cone * qn + inside, cone * qn - inside) * rough
         v = v0 + inv * (mode_rows.spread(jn, cn, kn * qn, dof) + mode_rows.spread(jt, ct, kt * qt, dof))
         vv = np.append(v, 0.0)
         s = np.maximum(mode_rows.gathered(jn, cn, vv) + base_n, 0.0) + INSIDE

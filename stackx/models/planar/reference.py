@@ -165,6 +165,7 @@ SETTLE_SHARE = 0.1  # a regularized problem is solved once its residual is this 
 SETTLE_STEP = 1e-4  # the shortest step of its line search
 POLISH = 1e-6  # m/s: below this contract residual, the proximal point method's full Newton rounds try to land
 PROBE_NEAR = 1e-8  # m/s: a try that got below this without landing has its stall probed by forced slides
+FRICTION_RAMP = (0.0, 0.25, 0.5, 0.75, 1.0)  # shares of the friction of the central paths in stages
 PROBES = 32  # most forced slides a solve probes (each: full Newton rounds), those slipping most first
 
 
@@ -507,19 +508,31 @@ def solve(problem: ContactProblem, pn: np.ndarray | None = None, pt: np.ndarray 
                 return found
         # the interior point stage (``interior``): the central path from the problem alone, then the two cheap
         # Newton tries from where it ends; a landing there is ``attempt`` 0
-        for begun in ([None, warm] if pn.any() or pt.any() else [None]):
-            # from the path's own start, then (where that folded) from the warm start, which lies on the
-            # answer's side of a fold more often than not
-            newton.modes = None
-            with np.errstate(over="ignore", invalid="ignore", divide="ignore"):  # its far end's products underflow
-                path, _, ended_on_path = central_path(newton.values, newton.columns, newton.k, newton.cone,
-                                                      newton.v0, newton.inv, newton.fixed_u, newton.target, begun)
+        def follow(begun: np.ndarray | None, ramp: tuple[float, ...] = (1.0,)) -> Solution | None:
+            """The central path from ``begun`` (None: its own start), once per share of the friction in
+            ``ramp``, each from where the last ended, then the two cheap Newton tries from its end."""
+            path, ended_on_path = begun, 0
+            for share in ramp:
+                with np.errstate(over="ignore", invalid="ignore", divide="ignore"):  # far end's products underflow
+                    path, _, ended_on_path = central_path(newton.values, newton.columns, newton.k,
+                                                          share * newton.cone, newton.v0, newton.inv,
+                                                          newton.fixed_u, newton.target, path)
             for run in (partial(attempt, path, rounds, 0), partial(full, path, 2 * rounds)) if ended_on_path else ():
                 newton.modes = None
                 found, _ = run()
                 if found is not None:
                     found.attempt = 0
                     return found
+            return None
+
+        # from the path's own start, then (where that folded) from the warm start, which lies on the answer's side
+        # of a fold more often than not, then with the friction raised in stages from none (``FRICTION_RAMP``)
+        paths = [partial(follow, None)] + ([partial(follow, warm)] if pn.any() or pt.any() else [])
+        for run in paths + [partial(follow, None, FRICTION_RAMP)]:
+            newton.modes = None
+            found = run()
+            if found is not None:
+                return found
     # every try is checked by the residual, so the order changes nothing but the cost: the cheap tries first,
     # then (on small problems, where it costs a few tens of ms) Lemke's pivoting, then the proximal point
     # method (seconds on a 20-row pyramid), then heavier Newton tries, and Lemke last on larger problems,
