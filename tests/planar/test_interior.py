@@ -12,7 +12,7 @@ from stackx.models.planar.problem import effective_masses, residual, velocities_
 from stackx.models.planar.step_problem import ReferenceStep
 from tests.planar.hand_states import pyramid
 from tests.planar.test_pivoting import _recorded_npz
-from tests.planar.test_reference import _recorded, brute_force, random_problem
+from tests.planar.test_reference import _jacobian, _recorded, brute_force, random_problem
 
 
 def path_end(p):  # type: ignore[no-untyped-def]
@@ -118,3 +118,66 @@ def test_a_landing_from_the_path_leaves_the_row_s_memory_of_its_tries(monkeypatc
                      state.inv_mass[0], state.inv_inertia[0], state.hx[0], state.hy[0], state.friction[0], -9.8,
                      1 / 60, 0.0)
     assert begun == [1, 4, 4]  # the path landed the second step: the third still begins its tries at the fourth
+
+
+def _contact_conditions(p, pn, pt):  # type: ignore[no-untyped-def]
+    """The worst breach (m/s) of the contract's conditions by impulses ``pn``, ``pt``, computed from the dense
+    Jacobian: velocities ``v0 + M^-1 J^T p``, then per point a push only where the point is at its target speed,
+    never below it, friction within ``mu pn`` and, where the point slips, at the bound against the slip. Each
+    breach is scaled to a velocity by the point's own effective mass (its diagonal of ``J M^-1 J^T``); a slip
+    with friction short of its bound counts up to the slip."""
+    jac = _jacobian(p)
+    inv = np.repeat(p.inv_mass, 3)
+    inv[2::3] = p.inv_inertia
+    impulses = np.empty(2 * p.points)
+    impulses[0::2], impulses[1::2] = pn, pt
+    u = jac @ (p.velocity.reshape(-1) + inv * (jac.T @ impulses))
+    un, ut = u[0::2] - p.target, u[1::2]
+    wn, wt = ((jac ** 2) * inv).sum(axis=1)[0::2], ((jac ** 2) * inv).sum(axis=1)[1::2]
+    bound = p.friction * pn
+    worst = [-un, -pn * wn, np.minimum(pn * wn, un),  # no approach beyond the target, no pull, complementarity
+             (np.abs(pt) - bound) * wt,  # the friction box
+             # a slip with friction short of its bound against it, up to the slip itself
+             np.minimum(np.maximum(ut, 0.0), (pt + bound) * wt), np.minimum(np.maximum(-ut, 0.0), (bound - pt) * wt)]
+    return float(max(np.max(np.abs(w) if i == 2 else w) for i, w in enumerate(worst)))
+
+
+def test_a_toppling_pile_whose_paths_fold_lands_where_friction_is_raised_in_stages() -> None:
+    # a 20-row pyramid shaking under planar-xpbd at 16 substeps (924 points): the central path folds both from
+    # its own start and from the warm start, and every later try stalled above the tolerance (44 s on the
+    # cascade); without friction the path ends, and raised from there in stages it ends on this step too
+    p, pn, pt = _recorded_npz("xpbd_pyramid20_fold_step")
+    kn, kt = effective_masses(p)
+    s = reference.ModeSystem(p, kn, kt)
+    arrays = (s.values, s.columns, s.k, s.cone, s.v0, s.inv, s.fixed_u, s.target)
+    with np.errstate(all="ignore"):
+        assert interior.central_path(*arrays)[2] == 0
+        assert interior.central_path(*arrays, np.concatenate([pn / kn, pt / kt]))[2] == 0
+        frictionless = (s.values, s.columns, s.k, 0.0 * s.cone, s.v0, s.inv, s.fixed_u, s.target)
+        assert interior.central_path(*frictionless)[2] == 1
+    sol = reference.solve(p, pn, pt)
+    assert sol.attempt == 0
+    assert residual(p, sol.pn, sol.pt) < 1e-10
+    assert _contact_conditions(p, sol.pn, sol.pt) < 1e-9
+    assert _contact_conditions(p, pn, pt) > 1e-3  # the warm start is far from it
+
+
+def test_a_path_begun_inside_a_narrow_friction_box_ends_near_an_answer() -> None:
+    # at low friction a box narrower than the margin the start keeps off each bound: the path begun at zero
+    # impulses must still start strictly inside (both friction slacks positive) and reach an answer
+    rng = np.random.default_rng(13)
+    ended_near = 0
+    for points in (1, 2, 3, 4):
+        for _ in range(6):
+            p = random_problem(rng, points)
+            p.friction[:] = 0.1
+            kn, kt = effective_masses(p)
+            s = reference.ModeSystem(p, kn, kt)
+            with np.errstate(all="ignore"):
+                q, _, ended = interior.central_path(s.values, s.columns, s.k, s.cone, s.v0, s.inv, s.fixed_u,
+                                                    s.target, np.zeros(2 * points))
+            m = p.points
+            v = velocities_after(p, np.maximum(q[:m], 0.0) * kn, q[m:] * kt)
+            with np.errstate(all="ignore"):
+                ended_near += bool(ended) and min(np.abs(v - a).max() for a in brute_force(p)) < 1e-5
+    assert ended_near >= 20  # of 24 (11 when a box narrower than the margin put the start outside it)
