@@ -68,6 +68,16 @@ def test_a_walk_through_many_refactorizations_keeps_its_answer(monkeypatch: pyte
     assert w.min() > -1e-12 and answers[0].min() >= 0.0 and abs(answers[0] @ w) < 1e-10
 
 
+def test_a_walk_gives_up_after_its_pivots_per_unknown() -> None:
+    # w = z - 1 per row: each z_i enters once, after z0 (n + 1 pivots in all); with one pivot per unknown the walk
+    # stops one short, with two it ends on z = 1
+    n = 5
+    with pytest.raises(RayEnd, match=f"did not end in {n} pivots"):
+        walk(sparse.identity(n, format="csc"), -np.ones(n), pivots_each=1)
+    found = walk(sparse.identity(n, format="csc"), -np.ones(n), pivots_each=2)
+    assert found.pivots == n + 1 and np.abs(found.z - 1.0).max() < 1e-12
+
+
 def test_an_lcp_without_answer_ends_on_a_ray() -> None:
     with pytest.raises(RayEnd, match="ray"):
         walk(sparse.csc_matrix([[-1.0]]), np.array([-1.0]))  # w = -z - 1 >= 0 has no z >= 0
