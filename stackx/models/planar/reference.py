@@ -6,9 +6,13 @@ rest) lands in ``WARM_ROUNDS`` Newton rounds of its own modes (below). Otherwise
 path of the step's complementarity problem (``stackx.models.planar.interior``: a primal-dual interior point
 method, which chooses no mode until the end and so is not thrown by a pile's redundant contacts) and makes the
 two cheap Newton tries from its end; where that path folds (with friction the problem is not monotone), it
-follows the path again from the warm start, which more often lies on the answer's side of the fold. A landing
-there is ``Solution.attempt`` 0. Only where both paths jam or their ends do not land come the tries below, from
-the warm start; ``interior=False`` makes them alone. Side by side on the same 30-step bench
+follows the path again from the warm start, which more often lies on the answer's side of the fold. Where that
+folds too, it raises the friction in stages (``FRICTION_RAMP``): without friction the step is a convex problem,
+whose path ends from its own start; each stage's path begins where the last one's ended, so the path meets the
+friction a share at a time instead of all at once (on a shaking 20-row pyramid, ``planar-xpbd`` at 16 substeps,
+most steps whose two paths folded end there). A landing on any of these paths is ``Solution.attempt`` 0. Only
+where every path jams or its end does not land come the tries below, from the warm start; ``interior=False``
+makes them alone. Side by side on the same 30-step bench
 (``python3 -m benchmarks.planar_reference --bench configs/planar/pyramid-10.yaml --steps 30``, 21 runs), the
 step log took 26.1 s with the path (and the compiled row sums of ``mode_rows``) against 95.2 s without either.
 
