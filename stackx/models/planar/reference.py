@@ -99,9 +99,10 @@ goes on from there, within ``PROBES`` forced slides in all.
 cycles, the proximal point method wanders, the forced slides probed do not land, and the proximal point method
 from the regularized problem's answer does not either; the solve
 then raises (``ReferenceFailure`` with the best residual reached) and the bench counts the step as
-``unsolved``, shown beside the error, never silently skipped. The known cases are on a 20-row pyramid: under
-``planar-xpbd``, stalls that need several slides at once and walks that crawl; under ``planar-soft-step`` at 64
-substeps, walks that crawl while the pile settles (docs/planar.md).
+``unsolved``, shown beside the error, never silently skipped. The known cases are on a 20-row pyramid that
+topples (``planar-xpbd`` at 4 substeps, ``planar-soft-step`` and ``planar-ngs`` at 1): many points slide at once,
+and on recorded steps of the first the central path jams even at a twentieth of the friction (its directions grow
+to 1e5 along heavily loaded sliding points) and Lemke's walk does not end (docs/planar.md).
 
 **Why exact.** The answer is returned only once the contract's own measure, ``problem.residual`` of the
 final impulses (complementarity of every normal, the friction box of every tangent, velocities recomputed
