@@ -11,6 +11,7 @@ from stackx.models.planar import interior, reference
 from stackx.models.planar.problem import effective_masses, residual, velocities_after
 from stackx.models.planar.step_problem import ReferenceStep
 from tests.planar.hand_states import pyramid
+from tests.planar.test_own_answer import plain_conditions
 from tests.planar.test_pivoting import _recorded_npz
 from tests.planar.test_reference import _jacobian, _recorded, brute_force, random_problem
 
@@ -136,25 +137,15 @@ def test_a_landing_from_the_path_leaves_the_row_s_memory_of_its_tries(monkeypatc
 
 
 def _contact_conditions(p, pn, pt):  # type: ignore[no-untyped-def]
-    """The worst breach (m/s) of the contract's conditions by impulses ``pn``, ``pt``, computed from the dense
-    Jacobian: velocities ``v0 + M^-1 J^T p``, then per point a push only where the point is at its target speed,
-    never below it, friction within ``mu pn`` and, where the point slips, at the bound against the slip. Each
-    breach is scaled to a velocity by the point's own effective mass (its diagonal of ``J M^-1 J^T``); a slip
-    with friction short of its bound counts up to the slip."""
+    """The worst breach (m/s) of the contract's conditions by impulses ``pn``, ``pt``: the bodies' velocities
+    from the dense Jacobian (``v0 + M^-1 J^T p``), each condition from its definition (``plain_conditions``)."""
     jac = _jacobian(p)
     inv = np.repeat(p.inv_mass, 3)
     inv[2::3] = p.inv_inertia
     impulses = np.empty(2 * p.points)
     impulses[0::2], impulses[1::2] = pn, pt
-    u = jac @ (p.velocity.reshape(-1) + inv * (jac.T @ impulses))
-    un, ut = u[0::2] - p.target, u[1::2]
-    wn, wt = ((jac ** 2) * inv).sum(axis=1)[0::2], ((jac ** 2) * inv).sum(axis=1)[1::2]
-    bound = p.friction * pn
-    worst = [-un, -pn * wn, np.minimum(pn * wn, un),  # no approach beyond the target, no pull, complementarity
-             (np.abs(pt) - bound) * wt,  # the friction box
-             # a slip with friction short of its bound against it, up to the slip itself
-             np.minimum(np.maximum(ut, 0.0), (pt + bound) * wt), np.minimum(np.maximum(-ut, 0.0), (bound - pt) * wt)]
-    return float(max(np.max(np.abs(w) if i == 2 else w) for i, w in enumerate(worst)))
+    velocity = (p.velocity.reshape(-1) + inv * (jac.T @ impulses)).reshape(-1, 3)
+    return max(plain_conditions(p, list(pn), list(pt), velocity).values())
 
 
 def test_a_shaking_pile_whose_paths_fold_lands_where_friction_is_raised_in_stages() -> None:

@@ -492,13 +492,12 @@ def solve(problem: ContactProblem, pn: np.ndarray | None = None, pt: np.ndarray 
             # a walk on the problem's own LCP may end on its answer, taken as it is: a Newton round there reads
             # modes on their boundaries and can leave it
             found = landed(q, 0)
-            reached = np.inf if found is None else found.residual
             if found is None:
                 found, reached = full(q, 2 * rounds)
             if found is None and m > pivoting.EXACT_POINTS:
                 found, reached = settle(q, 2 * rounds, PIVOT_SETTLE)
             if found is not None:
-                return found, reached
+                return found, found.residual
             best = min(best, reached)
         return None, best
 

@@ -332,11 +332,11 @@ def frictions(record: np.ndarray, begin: np.uint64, end: np.uint64) -> None:
 
 @inlined
 def normal_visit(record: np.ndarray, at: np.uint64, q: int, h: float, use_bias: bool, push_out: float,
-                 apart: bool) -> None:
+                 some_apart: bool) -> None:
     """Point ``q``'s normal visit in the lane whose fields start at ``at`` (the soft step's visit, its
     arithmetic in its order) at its separation as last measured (``measure``): the soft or speculative
-    target (no lane of the block is ``apart``: no speculative one), the accumulated normal impulse clamped
-    at 0 and applied. What a lane without the point would change is kept by a select."""
+    target (none speculative when no lane of the block is ``some_apart``), the accumulated normal impulse
+    clamped at 0 and applied. What a lane without the point would change is kept by a select."""
     p = at + np.uint64(q) * SECOND
     nx, ny = record[p + R_NX], record[p + R_NY]
     rax, ray = record[p + R_RAX], record[p + R_RAY]
@@ -344,7 +344,7 @@ def normal_visit(record: np.ndarray, at: np.uint64, q: int, h: float, use_bias: 
     s = record[p + R_S]
     target, mass_scale, impulse_scale = 0.0, 1.0, 0.0
     if s > 0.0:
-        target = -s / h if apart else 0.0
+        target = -s / h if some_apart else 0.0
     elif use_bias:
         target = min(-record[at + R_BIAS] * s, push_out)
         mass_scale = record[at + R_SCALE]
