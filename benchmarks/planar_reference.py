@@ -10,7 +10,8 @@ that sags and slides: the hard path), each watched by the planar step log; with 
 and its ``bench.set``; KNOB ``-``: the config's value of the knob, else the solver's default). Printed per
 run: the median and the largest time per reference solve (failed ones included; ``planar-exact`` runs its
 own solve too) and their sum (what the run's reference solves add to a bench), Newton rounds and sweeps per
-solved step, and the steps the reference could not solve of those the step log watched, with the run's RMS
+solved step, and the steps the reference could not solve of those the step log watched, the seconds their
+solves took (``failed s``: on a pile the reference cannot follow, most of what the run costs), the run's RMS
 error; the step log's whole cost per step (``log ms``: the reference solve, the monitors and the check of
 the solver's own answer) and, of it, that check alone (``own us``: ``stackx.models.planar.error.check_own``,
 from velocities and, for a solver that exposes them, impulses); per pyramid, the ratio of the median solve on
@@ -23,8 +24,9 @@ steps cut to ``--steps`` when given (``--set steps=N``: a bench's cost grows wit
 bench takes about ``config steps / N`` times as long on a pile that stays as busy). Printed: the bench's
 wall time and the step log's share of it, then per run its steps and, per step, the reference solve
 (``ref ms``), the step log's whole cost (``log ms``: the run's own reference solves and checks, and its
-share of the batch's monitors) and the check of its own answer (``own us``: velocities and, for a solver
-that exposes them, impulses; ``stackx.models.planar.error.check_own``). Measured on 2 shared cores with
+share of the batch's monitors), the check of its own answer (``own us``: velocities and, for a solver
+that exposes them, impulses; ``stackx.models.planar.error.check_own``), and the steps it could not solve with the
+seconds their solves took (``failed s``). Measured on 2 shared cores with
 ``--bench configs/planar/pyramid-10.yaml --steps 30`` (21 runs): 256 s wall, 98% of it the step log, nearly
 all of that the reference solves (from 0.9 ms a step on planar-exact's path to 2.3 s on planar-xpbd's at 4
 substeps); the own-answer check 0.05 to 0.4 ms a step.
@@ -77,6 +79,7 @@ def measure(path: str, steps: int, solver: str, knob: int | None) -> dict[str, f
     """Time every reference solve of a ``solver`` run of the config at ``path``, and the run's own steps."""
     spec = load_run(path, steps, solver, knob)
     solves: list[float] = []
+    failed: list[float] = []  # the seconds of the solves that raised
     work: list[tuple[int, int]] = []
     plain = step_problem.ReferenceStep._solve
 
@@ -84,6 +87,9 @@ def measure(path: str, steps: int, solver: str, knob: int | None) -> dict[str, f
         t0 = time.perf_counter()
         try:
             found = plain(self, *args)  # type: ignore[arg-type]
+        except reference.ReferenceFailure:
+            failed.append(time.perf_counter() - t0)
+            raise
         finally:
             solves.append(time.perf_counter() - t0)
         work.append((found.rounds, found.sweeps))
@@ -122,7 +128,7 @@ def measure(path: str, steps: int, solver: str, knob: int | None) -> dict[str, f
     timed_solves = solves[1:] or solves  # the first includes loading compiled code
     error = row.error()
     return {"median_ms": 1e3 * statistics.median(timed_solves), "max_ms": 1e3 * max(timed_solves),
-            "total_s": sum(solves),
+            "total_s": sum(solves), "failed_s": sum(failed),
             "rounds": statistics.mean(r for r, _ in work) if work else 0.0,
             "sweeps": statistics.mean(s for _, s in work) if work else 0.0,
             "unsolved": error["unsolved"], "logged": error["steps"] + error["unsolved"], "rms": error["rms"],
@@ -182,6 +188,7 @@ def bench_costs(path: str, steps: int | None) -> tuple[float, dict[str, dict[str
         except reference.ReferenceFailure:
             if current[0] is not None:
                 spent[(id(current[0]), b)]["unsolved"] += 1
+                spent[(id(current[0]), b)]["failed"] += time.perf_counter() - t0
             raise
         finally:
             if current[0] is not None:  # the step log's solves, not planar-exact's own
@@ -218,6 +225,7 @@ def bench_costs(path: str, steps: int | None) -> tuple[float, dict[str, dict[str
             run["reference"] += row["reference"]
             run["own"] += row["own"]
             run["unsolved"] += row["unsolved"]
+            run["failed"] += row["failed"]
             run["log"] += row["reference"] + row["own"] + rest / len(run_names)
     return wall, runs
 
@@ -228,19 +236,22 @@ def bench_main(path: str, steps: int | None) -> None:
     logged = sum(r["log"] for r in runs.values())
     cap = "" if steps is None else f" --set steps={steps}"
     unsolved = sum(r["unsolved"] for r in runs.values())
+    failed = sum(r["failed"] for r in runs.values())
     print(f"stackx bench {path}{cap}: {wall:.1f} s wall, of which the step log {logged:.1f} s "
-          f"({100 * logged / wall:.0f}%), {len(runs)} runs, {unsolved:.0f} steps the reference did not solve")
-    print(f"{'run':<56}{'steps':>7}{'ref ms':>9}{'log ms':>9}{'own us':>9}{'unsolved':>9}")
+          f"({100 * logged / wall:.0f}%), {len(runs)} runs, {unsolved:.0f} steps the reference did not solve, "
+          f"their solves {failed:.1f} s")
+    print(f"{'run':<56}{'steps':>7}{'ref ms':>9}{'log ms':>9}{'own us':>9}{'unsolved':>9}{'failed s':>9}")
     for name, r in runs.items():
         n = max(r["steps"], 1)
         print(f"{name:<56}{r['steps']:>7.0f}{1e3 * r['reference'] / n:>9.2f}{1e3 * r['log'] / n:>9.2f}"
-              f"{1e6 * r['own'] / n:>9.0f}{r['unsolved']:>9.0f}")
+              f"{1e6 * r['own'] / n:>9.0f}{r['unsolved']:>9.0f}{r['failed']:>9.1f}")
 
 
 def line(name: str, m: dict[str, float]) -> str:
     rms = "-" if m["rms"] is None else f"{m['rms']:.4g}"
     return (f"{name:<52}{m['median_ms']:>10.1f}{m['max_ms']:>10.1f}{m['total_s']:>9.1f}{m['rounds']:>8.1f}"
-            f"{m['sweeps']:>8.0f}{m['unsolved']:>6d}/{m['logged']:<5d}{rms:>10}{m['log_ms']:>9.1f}{m['own_us']:>8.0f}")
+            f"{m['sweeps']:>8.0f}{m['unsolved']:>6d}/{m['logged']:<5d}{m['failed_s']:>9.1f}{rms:>10}{m['log_ms']:>9.1f}"
+            f"{m['own_us']:>8.0f}")
 
 
 def main() -> None:
@@ -261,7 +272,7 @@ def main() -> None:
         return
     args.steps = 60 if args.steps is None else args.steps
     print(f"{'run':<52}{'ms/solve':>10}{'max ms':>10}{'total s':>9}{'rounds':>8}{'sweeps':>8}{'unsolved':>12}"
-          f"{'rms m/s':>10}{'log ms':>9}{'own us':>8}")
+          f"{'failed s':>9}{'rms m/s':>10}{'log ms':>9}{'own us':>8}")
     if args.run:
         for path, solver, knob in args.run:
             m = measure(path, args.steps, solver, None if knob == "-" else int(knob))
