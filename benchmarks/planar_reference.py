@@ -26,7 +26,8 @@ wall time and the step log's share of it, then per run its steps and, per step, 
 (``ref ms``), the step log's whole cost (``log ms``: the run's own reference solves and checks, and its
 share of the batch's monitors), the check of its own answer (``own us``: velocities and, for a solver
 that exposes them, impulses; ``stackx.models.planar.error.check_own``), and the steps it could not solve with the
-seconds their solves took (``failed s``). Measured on 2 shared cores with
+seconds their solves took (``failed s``); then the solved steps by what landed them (``Solution.attempt``: the
+central path, a warm start's Newton rounds or the first try, each later try of the fallback). Measured on 2 shared cores with
 ``--bench configs/planar/pyramid-10.yaml --steps 30`` (21 runs): 256 s wall, 98% of it the step log, nearly
 all of that the reference solves (from 0.9 ms a step on planar-exact's path to 2.3 s on planar-xpbd's at 4
 substeps); the own-answer check 0.05 to 0.4 ms a step.
@@ -152,10 +153,12 @@ def warm_up_checks() -> None:
     violations(problem, *matched(keys, keys[1:], np.ones(problem.points - 1), np.zeros(problem.points - 1)))
 
 
-def bench_costs(path: str, steps: int | None) -> tuple[float, dict[str, dict[str, float]]]:
+def bench_costs(path: str, steps: int | None) -> tuple[float, dict[str, dict[str, float]], dict[int, int]]:
     """``stackx bench path`` (every solver, one process, the report written to a temporary folder), each run
     cut to ``steps`` (None: the config's): its wall time (s) and per run (by case and run name) the steps
-    logged and the seconds its reference solves, its step log and its own-answer checks took."""
+    logged, the steps its reference did not solve and the seconds its reference solves (those failed among
+    them), its step log and its own-answer checks took; and the solved steps counted by the try that landed
+    them (``Solution.attempt``)."""
     from stackx.bench.command import bench
 
     os.environ.setdefault("STACKX_JIT", "1")  # as the stackx bench command sets it
@@ -163,6 +166,7 @@ def bench_costs(path: str, steps: int | None) -> tuple[float, dict[str, dict[str
     spent: dict[tuple[int, int], dict[str, float]] = defaultdict(lambda: defaultdict(float))  # (batch, row)
     batch_log: dict[int, float] = defaultdict(float)  # step log seconds per batch
     current: list[Any] = [None]  # the batch log whose step is being logged
+    landed: dict[int, int] = defaultdict(int)  # the step log's solved steps by the try that landed them
     plain_batch, plain_log, plain_check = StepLog.batch, planar_log.log_step, planar_log.check_own
     plain_solve = step_problem.ReferenceStep._solve
 
@@ -184,7 +188,10 @@ def bench_costs(path: str, steps: int | None) -> tuple[float, dict[str, dict[str
     def solve(self: Any, b: int, *args: Any) -> Any:
         t0 = time.perf_counter()
         try:
-            return plain_solve(self, b, *args)
+            found = plain_solve(self, b, *args)
+            if current[0] is not None:
+                landed[found.attempt] += 1
+            return found
         except reference.ReferenceFailure:
             if current[0] is not None:
                 spent[(id(current[0]), b)]["unsolved"] += 1
@@ -227,12 +234,12 @@ def bench_costs(path: str, steps: int | None) -> tuple[float, dict[str, dict[str
             run["unsolved"] += row["unsolved"]
             run["failed"] += row["failed"]
             run["log"] += row["reference"] + row["own"] + rest / len(run_names)
-    return wall, runs
+    return wall, runs, dict(sorted(landed.items()))
 
 
 def bench_main(path: str, steps: int | None) -> None:
     """Print ``bench_costs``: the wall time, then a line per run."""
-    wall, runs = bench_costs(path, steps)
+    wall, runs, landed = bench_costs(path, steps)
     logged = sum(r["log"] for r in runs.values())
     cap = "" if steps is None else f" --set steps={steps}"
     unsolved = sum(r["unsolved"] for r in runs.values())
@@ -245,6 +252,9 @@ def bench_main(path: str, steps: int | None) -> None:
         n = max(r["steps"], 1)
         print(f"{name:<56}{r['steps']:>7.0f}{1e3 * r['reference'] / n:>9.2f}{1e3 * r['log'] / n:>9.2f}"
               f"{1e6 * r['own'] / n:>9.0f}{r['unsolved']:>9.0f}{r['failed']:>9.1f}")
+    later = ", ".join(f"{n} by try {a}" for a, n in landed.items() if a > 1) or "none"
+    print(f"solved steps by what landed them: {landed.get(0, 0)} the central path, {landed.get(1, 0)} a warm "
+          f"start's Newton rounds or the first try, later tries: {later} (reference.solve numbers them)")
 
 
 def line(name: str, m: dict[str, float]) -> str:
