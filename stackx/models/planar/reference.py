@@ -101,8 +101,9 @@ from the regularized problem's answer does not either; the solve
 then raises (``ReferenceFailure`` with the best residual reached) and the bench counts the step as
 ``unsolved``, shown beside the error, never silently skipped. The known cases are on a 20-row pyramid that
 topples (``planar-xpbd`` at 4 substeps, ``planar-soft-step`` and ``planar-ngs`` at 1): many points slide at once,
-and on recorded steps of the first the central path jams even at a twentieth of the friction (its directions grow
-to 1e5 along heavily loaded sliding points) and Lemke's walk does not end (docs/planar.md).
+and on recorded steps of the first the held points form loops of redundant contacts whose speculative targets
+disagree, the central path folds even at a hundredth of the friction, and Lemke's walk does not end (docs/planar.md
+says why, and what else was tried).
 
 **Why exact.** The answer is returned only once the contract's own measure, ``problem.residual`` of the
 final impulses (complementarity of every normal, the friction box of every tangent, velocities recomputed
