@@ -143,3 +143,41 @@ def test_a_fresh_solver_reads_nothing_of_its_rooms_but_what_it_wrote() -> None:
         assert getattr(clean, name).tobytes() == getattr(dirty, name).tobytes(), name
     assert clean_impulses.keys.tobytes() == dirty_impulses.keys.tobytes()
     assert clean_impulses.pn.tobytes() == dirty_impulses.pn.tobytes()
+
+
+def test_a_row_whose_points_outgrow_its_table_hands_them_on_as_one_call_steps() -> None:
+    """Twelve boxes dropped into one another find more points than a row's table has room for (the
+    call steps in a larger one, and hands its points on by copying them back once they fit again):
+    calls of one step give the numbers of one call, and the kept table then holds the points a fresh
+    collision test finds where the boxes are."""
+    from stackx.models.planar.monitor import contact_room
+    from stackx.solvers.planar.contacts import contact_workspace, find_contacts
+    from tests.planar.hand_states import boxes
+
+    def heap() -> PlanarState:
+        rng = np.random.default_rng(7)
+        n = 12
+        return boxes(list(rng.uniform(-0.1, 0.1, n)), list(0.5 + rng.uniform(0.0, 0.3, n)),
+                     list(rng.uniform(-0.2, 0.2, n)), [(0.5, 0.5)] * n, [1.0] * n, [0.5] * n)
+
+    start = heap()
+    ids, table = contact_workspace(1)
+    found = find_contacts(start.x[0], start.y[0], start.angle[0], start.hx[0], start.hy[0], start.inv_mass[0],
+                          PlanarSoftStepParams().speculative, ids, table)[2]
+    assert found > contact_room(start.bodies)  # the heap does outgrow the room
+    one, many = heap(), heap()
+    solver = _solver()
+    with compiled(True):
+        _solver().advance(one, 30)
+        for _ in range(30):
+            solver.advance(many, 1)
+    for name in FIELDS:
+        assert getattr(one, name).tobytes() == getattr(many, name).tobytes(), name
+    kept = solver.kept
+    assert kept is not None and kept.count[0] >= 0
+    ids, table = contact_workspace(1)
+    ids, table, count = find_contacts(many.x[0], many.y[0], many.angle[0], many.hx[0], many.hy[0],
+                                      many.inv_mass[0], PlanarSoftStepParams().speculative, ids, table)
+    assert kept.count[0] == count
+    assert kept.ids[0, :count].tobytes() == ids[:count].tobytes()
+    assert kept.points[0, :count].tobytes() == np.ascontiguousarray(table[:count, :kept.points.shape[2]]).tobytes()

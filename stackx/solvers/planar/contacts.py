@@ -333,15 +333,24 @@ def set_targets(table: np.ndarray, count: int, dt: float) -> None:
 def recall(ids: np.ndarray, table: np.ndarray, count: int, keys: np.ndarray, carried: np.ndarray,
            held: int) -> None:
     """Warm start values: each point's impulses from the last step's point with the same ``(A, B, FEATURE)``,
-    0 for a new point (written: the table's impulses need no clearing first). ``collide`` lists points by
-    ``(A, B)`` in increasing order (the ground's first), and so does the memory, so one walk down both lists
-    finds every match. A step lists each ``(A, B, FEATURE)`` once, so a point whose key is the memory's at
-    its own place (a pile at rest, the same corners touching) is that match, found without the walk."""
+    0 for a new point, into the table's ``PN`` and ``PT`` (``recall_impulses``)."""
+    recall_impulses(ids, count, keys, carried, held, table[:, PN:PT + 1])
+
+
+@leaf
+def recall_impulses(ids: np.ndarray, count: int, keys: np.ndarray, carried: np.ndarray, held: int,
+                    impulses: np.ndarray) -> None:
+    """``recall`` into ``impulses`` ``(room, 2)``: each point's normal and tangent impulses from the last
+    step's point with the same ``(A, B, FEATURE)``, 0 for a new point (written: no clearing needed first).
+    ``collide`` lists points by ``(A, B)`` in increasing order (the ground's first), and so does the memory,
+    so one walk down both lists finds every match. A step lists each ``(A, B, FEATURE)`` once, so a point
+    whose key is the memory's at its own place (a pile at rest, the same corners touching) is that match,
+    found without the walk."""
     j = 0
     for k in range(count):
         a, b, f = ids[k, A], ids[k, B], ids[k, FEATURE]
         if k < held and keys[k, 0] == a and keys[k, 1] == b and keys[k, 2] == f:
-            table[k, PN], table[k, PT] = carried[k, 0], carried[k, 1]
+            impulses[k, 0], impulses[k, 1] = carried[k, 0], carried[k, 1]
             continue
         while j < held and (keys[j, 0] < a or (keys[j, 0] == a and keys[j, 1] < b)):
             j += 1
@@ -352,7 +361,7 @@ def recall(ids: np.ndarray, table: np.ndarray, count: int, keys: np.ndarray, car
                 pn, pt = carried[i, 0], carried[i, 1]
                 break
             i += 1
-        table[k, PN], table[k, PT] = pn, pt
+        impulses[k, 0], impulses[k, 1] = pn, pt
 
 
 @leaf

@@ -66,8 +66,7 @@ from stackx.registry import solvers
 from stackx.solvers.planar.applied import clear_applied
 from stackx.solvers.planar.base import PlanarMemorySolver, StepImpulses
 from stackx.solvers.planar.kept import Kept, keep, take_back
-from stackx.solvers.planar.contacts import (COLUMNS, PN, PT, find_contacts_near, near_workspace, observe_contacts,
-                                            recall, same_pairs)
+from stackx.solvers.planar.contacts import find_contacts_near, observe_contacts, recall_impulses, same_pairs
 from stackx.solvers.planar.wavefront import manifold_starts, wavefronts
 from stackx.solvers.planar.wide import (BLOCK, BODY_COLUMNS, COS, D_X, D_Y, LANES, SIN, V_W, V_X, V_Y,
                                         add_applied, block_workspace, effective_masses, empty_lanes,
@@ -96,34 +95,33 @@ class PlanarSoftStepParams(SoftStepParams):
 
 class Workspace:
     """What ``soft_step_advance``'s threads step their rows in, kept by the solver from one call to the next
-    (made again when the threads or the room change): per thread, ``GROUP`` contact tables of ``room``
-    points (``ids``, ``tables``) and blocks for ``blocks`` blocks (``record``, ``sides``,
-    ``wide.block_workspace``), which grow to what the last call needed. Everything a call reads there it
-    has written first, so a call steps as in fresh memory; made afresh by every call, the megabytes of a
-    large batch's tables and blocks were faulted in page by page each time (on 64 rows of a 20-row pyramid
-    stepped a step a call, 3 to 4% of the step). Unfilled (``contact_workspace`` zeroes its tables): zeroing
-    a pile's room costs more than its bookkeeping."""
+    (made again when the threads or the room change): per thread, ``GROUP`` rows' recalled impulses of
+    ``room`` points (``impulses``; the points are in each row's own table, ``kept.Kept``) and blocks for
+    ``blocks`` blocks (``record``, ``sides``, ``wide.block_workspace``), which grow to what the last call
+    needed. Everything a call reads there it has written first, so a call steps as in fresh memory; made
+    afresh by every call, the megabytes of a large batch's tables and blocks were faulted in page by page
+    each time (on 64 rows of a 20-row pyramid stepped a step a call, 3 to 4% of the step). Unfilled:
+    zeroing a pile's room costs more than its bookkeeping."""
 
     def __init__(self, threads: int, room: int, blocks: int = 1) -> None:
-        self.ids = np.empty((threads, GROUP, room, 3), np.int64)
-        self.tables = np.empty((threads, GROUP, room, COLUMNS))
+        self.impulses = np.empty((threads, GROUP, room, 2))
         self.record = np.empty((threads, blocks * BLOCK))
         self.sides = np.empty((threads, blocks * LANES, 2), np.uint64)
         self.blocks = np.zeros(threads, np.int64)  # the blocks each thread stepped in, by the last call
 
     def fits(self, threads: int, room: int) -> bool:
         """Whether this has tables for ``threads`` threads of ``room`` points."""
-        return self.ids.shape[:3] == (threads, GROUP, room)
+        return self.impulses.shape[:3] == (threads, GROUP, room)
 
     def arrays(self) -> tuple[np.ndarray, ...]:
-        """``(ids, tables, record, sides, blocks)``, as ``soft_step_advance`` takes them."""
-        return self.ids, self.tables, self.record, self.sides, self.blocks
+        """``(impulses, record, sides, blocks)``, as ``soft_step_advance`` takes them."""
+        return self.impulses, self.record, self.sides, self.blocks
 
     def grow(self) -> None:
         """Blocks for as many as the last call grew to, where a thread needed more than there were."""
         most = int(self.blocks.max())
         if most * LANES > self.sides.shape[1]:
-            threads = self.ids.shape[0]
+            threads = self.impulses.shape[0]
             self.record = np.empty((threads, most * BLOCK))
             self.sides = np.empty((threads, most * LANES, 2), np.uint64)
 
@@ -226,8 +224,8 @@ def soft_step_advance(x: np.ndarray, y: np.ndarray, angle: np.ndarray, vx: np.nd
                       held: np.ndarray, applied: np.ndarray, kept_ids: np.ndarray, kept_points: np.ndarray,
                       kept_count: np.ndarray, kept_at: np.ndarray, kept_near: np.ndarray, kept_fat: np.ndarray,
                       last: np.ndarray, peak: np.ndarray, reach: np.ndarray, touched: np.ndarray,
-                      launch: np.ndarray, groups: np.ndarray, chunks: np.ndarray, ids_room: np.ndarray,
-                      table_room: np.ndarray, records: np.ndarray, sides_room: np.ndarray, blocks: np.ndarray,
+                      launch: np.ndarray, groups: np.ndarray, chunks: np.ndarray, impulses_room: np.ndarray,
+                      records: np.ndarray, sides_room: np.ndarray, blocks: np.ndarray,
                       first: np.ndarray, order: np.ndarray, tally: np.ndarray, waves: np.ndarray,
                       ordered: np.ndarray, steps: int) -> None:
     """``steps`` steps of every batch row, in place, the rows ``groups[i]`` to ``groups[i + 1]`` stepped
@@ -235,29 +233,28 @@ def soft_step_advance(x: np.ndarray, y: np.ndarray, angle: np.ndarray, vx: np.nd
     ``keys``, ``carried`` and ``held`` carry each row's points and impulses from one step (and one call) to
     the next; ``applied`` gets what each step applied (``stackx.solvers.planar.applied``) when it has room
     for them (``watch_impulses``), else nothing; the ``kept_`` arrays (``kept.Kept``) carry the contacts
-    found where a call ends to the next call.
+    found where a call ends to the next call, and are the tables each row's steps find their contacts in.
 
-    Thread ``t`` steps its chunk in its own contact tables ``ids_room[t, r]``, ``table_room[t, r]`` and
-    blocks ``records[t]``, ``sides_room[t]`` (``Workspace``), grown for the call when they are too small;
+    Thread ``t`` steps its chunk with its own impulses ``impulses_room[t, r]`` and blocks ``records[t]``,
+    ``sides_room[t]`` (``Workspace``), grown for the call when they are too small;
     ``blocks[t]`` gets the blocks it stepped in. ``first`` to ``ordered`` hold each row's wave order
     (``WaveOrders``).
 
-    A chunk's groups share one set of contact tables and blocks: memory taken afresh for every group would
+    A chunk's groups share one set of impulses and blocks: memory taken afresh for every group would
     be handed back to the system and faulted in again page by page, which on 64 rows of a 20-row pyramid
     cost about a tenth of a step."""
     for t in prange(chunks.shape[0] - 1):
         most = 1
         for i in range(chunks[t], chunks[t + 1]):
             most = max(most, groups[i + 1] - groups[i])
-        ids_of = [ids_room[t, r] for r in range(most)]
-        table_of = [table_room[t, r] for r in range(most)]
+        impulses_of = [impulses_room[t, r] for r in range(most)]
         record, sides = records[t], sides_room[t]
         for i in range(chunks[t], chunks[t + 1]):
             lo, hi = groups[i], groups[i + 1]
             record, sides = step_rows(lo, hi, x, y, angle, vx, vy, w, inv_mass, inv_inertia, hx, hy, friction, g,
                                       dt, substeps, hertz, damping_ratio, push_out, relax, warm, speculative, keys,
                                       carried, held, applied, kept_ids, kept_points, kept_count, kept_at, kept_near,
-                                      kept_fat, last, peak, reach, touched, launch, ids_of, table_of, record,
+                                      kept_fat, last, peak, reach, touched, launch, impulses_of, record,
                                       sides, first[lo:hi], order[lo:hi], tally[lo:hi], waves[lo:hi],
                                       ordered[lo:hi], steps)
         blocks[t] = sides.shape[0] // LANES
@@ -271,8 +268,8 @@ def step_rows(lo: int, hi: int, x: np.ndarray, y: np.ndarray, angle: np.ndarray,
               speculative: np.ndarray, keys: np.ndarray, carried: np.ndarray, held: np.ndarray,
               applied: np.ndarray, kept_ids: np.ndarray, kept_points: np.ndarray, kept_count: np.ndarray,
               kept_at: np.ndarray, kept_near: np.ndarray, kept_fat: np.ndarray, last: np.ndarray, peak: np.ndarray,
-              reach: np.ndarray, touched: np.ndarray, launch: np.ndarray, ids_of: list[np.ndarray],
-              table_of: list[np.ndarray], record: np.ndarray, sides: np.ndarray, first: np.ndarray,
+              reach: np.ndarray, touched: np.ndarray, launch: np.ndarray, impulses_of: list[np.ndarray],
+              record: np.ndarray, sides: np.ndarray, first: np.ndarray,
               order: np.ndarray, tally: np.ndarray, waves: np.ndarray, ordered: np.ndarray,
               steps: int) -> tuple[np.ndarray, np.ndarray]:
     """``steps`` steps of rows ``lo`` to ``hi``, which share their substep, number of substeps, relax and
@@ -280,8 +277,9 @@ def step_rows(lo: int, hi: int, x: np.ndarray, y: np.ndarray, angle: np.ndarray,
     one layout of all the rows' manifolds, the rows' bodies one after the other in the bodies' rows
     (``wide.place_waves``). A row's manifolds and bodies meet no other row's, so every number is the one
     stepping the row alone gives; a pass over several worlds keeps more independent visits in flight (a
-    pass over one pyramid waits on its chain of waves). Row ``r`` of the group uses the contact table
-    ``ids_of[r]``, ``table_of[r]`` (replaced by a larger one when its points outgrow it), and the blocks are
+    pass over one pyramid waits on its chain of waves). Row ``b`` finds its contacts in its own table
+    ``kept_ids[b]``, ``kept_points[b]`` (``kept.Kept``; replaced for the call by a larger one when its points
+    outgrow it) and recalls their impulses into ``impulses_of[r]`` (the same), and the blocks are
     ``record`` and ``sides`` (``wide.block_workspace``), grown when too small; returns the blocks. The rows'
     wave orders are ``first`` to ``ordered`` (``WaveOrders``), replaced for the call by room for more when
     a row's points outgrow them (and then marked as none when it ends)."""
@@ -295,8 +293,10 @@ def step_rows(lo: int, hi: int, x: np.ndarray, y: np.ndarray, angle: np.ndarray,
         softness[r, 0, 0], softness[r, 0, 1], softness[r, 0, 2] = soft(contact_hertz, damping_ratio[b], h)
         softness[r, 1, 0], softness[r, 1, 1], softness[r, 1, 2] = soft(STATIC_HERTZ * contact_hertz,
                                                                        damping_ratio[b], h)
-    near_of = [np.empty(0, np.int64) for _ in range(worlds)]  # the broad phase's candidates, kept while the
-    fat_of = [np.empty((0, 4)) for _ in range(worlds)]  # boxes stay near (``near_workspace``, below)
+    ids_of = [kept_ids[lo + r] for r in range(worlds)]  # each row's own table (``kept``)
+    table_of = [kept_points[lo + r] for r in range(worlds)]
+    near_of = [kept_near[lo + r] for r in range(worlds)]  # the broad phase's candidates, kept while the
+    fat_of = [kept_fat[lo + r] for r in range(worlds)]  # boxes stay near (``find_contacts_near``)
     count = np.empty(worlds, np.int64)
     room = 0
     for r in range(worlds):
@@ -309,10 +309,9 @@ def step_rows(lo: int, hi: int, x: np.ndarray, y: np.ndarray, angle: np.ndarray,
     ground = worlds * n
     for r in range(worlds):
         b = lo + r
-        near_of[r], fat_of[r] = near_workspace(n)
-        count[r] = take_back(x[b], y[b], angle[b], hx[b], hy[b], inv_mass[b], ids_of[r], table_of[r], near_of[r],
-                             fat_of[r], kept_ids[b], kept_points[b], kept_count[b], kept_at[b], kept_near[b],
-                             kept_fat[b])
+        count[r] = take_back(x[b], y[b], angle[b], hx[b], hy[b], inv_mass[b], kept_count[b], kept_at[b],
+                             near_of[r])
+        kept_count[b] = -1  # the table is this call's until it ends (``keep``)
         if count[r] < 0:
             ids_of[r], table_of[r], count[r], near_of[r] = find_contacts_near(
                 x[b], y[b], angle[b], hx[b], hy[b], inv_mass[b], speculative[b], near_of[r], fat_of[r], ids_of[r],
@@ -330,15 +329,16 @@ def step_rows(lo: int, hi: int, x: np.ndarray, y: np.ndarray, angle: np.ndarray,
             wave, place, slots, ends, used = lane_workspace(room, worlds)
             kept_orders = False
         for r in range(worlds):
-            b, ids, table = lo + r, ids_of[r], table_of[r]
+            b, ids = lo + r, ids_of[r]
             # the last step's pairs again (a pile at rest): the same manifolds, so the wave order found for them
             same = same_pairs(ids, count[r], keys[b], held[b]) and ordered[r] == count[r]
             kept_pairs = kept_pairs and same
+            if impulses_of[r].shape[0] < count[r]:  # the points outgrew the room: as large as their table
+                impulses_of[r] = np.empty((ids.shape[0], 2))
             if warm[b]:
-                recall(ids, table, count[r], keys[b], carried[b], held[b])
+                recall_impulses(ids, count[r], keys[b], carried[b], held[b], impulses_of[r])
             else:
-                table[:count[r], PN] = 0.0
-                table[:count[r], PT] = 0.0
+                impulses_of[r][:count[r]] = 0.0
             if not same:
                 m = manifold_starts(ids, count[r], first[r])
                 waves[r] = wavefronts(ids, first[r], m, latest, wave[r], tally[r], order[r])
@@ -350,7 +350,7 @@ def step_rows(lo: int, hi: int, x: np.ndarray, y: np.ndarray, angle: np.ndarray,
             laid = False
         for r in range(worlds):  # the same manifolds in the same lanes: what depends on the pairs alone is there
             b = lo + r
-            lay_out(x[b], y[b], inv_mass[b], inv_inertia[b], friction[b], ids_of[r], table_of[r], first[r],
+            lay_out(x[b], y[b], inv_mass[b], inv_inertia[b], friction[b], ids_of[r], table_of[r], impulses_of[r], first[r],
                     order[r], waves[r], tally[r], softness[r], place[r], r * n, ground, not (laid and kept_pairs),
                     sides, slots[r], record)
         laid = True

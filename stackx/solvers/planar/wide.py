@@ -37,7 +37,7 @@ from __future__ import annotations
 import numpy as np
 
 from stackx.kernel import inlined, kernel, leaf
-from stackx.solvers.planar.contacts import A, B, DEPTH, FEATURE, NX, NY, PN, PT, PX, PY, effective_mass
+from stackx.solvers.planar.contacts import A, B, DEPTH, FEATURE, NX, NY, PX, PY, effective_mass
 
 LANES = 4  # manifolds a block solves side by side
 
@@ -72,16 +72,17 @@ def block_workspace(blocks: int) -> tuple[np.ndarray, np.ndarray]:
 
 @leaf
 def lay_out(x: np.ndarray, y: np.ndarray, inv_mass: np.ndarray, inv_inertia: np.ndarray, friction: np.ndarray,
-            ids: np.ndarray, table: np.ndarray, first: np.ndarray, order: np.ndarray, waves: int,
-            tally: np.ndarray, softness: np.ndarray, place: np.ndarray, offset: int, ground: int, whole: bool,
-            sides: np.ndarray, slots: np.ndarray, record: np.ndarray) -> None:
+            ids: np.ndarray, table: np.ndarray, impulses: np.ndarray, first: np.ndarray, order: np.ndarray,
+            waves: int, tally: np.ndarray, softness: np.ndarray, place: np.ndarray, offset: int, ground: int,
+            whole: bool, sides: np.ndarray, slots: np.ndarray, record: np.ndarray) -> None:
     """One world's manifolds in lanes, wave by wave (``order``, ``tally`` from ``wavefronts``), with all a
     visit reads that does not change within the step, found once: wave ``v``'s manifolds in consecutive lanes
     from lane ``place[v]`` (lane ``l`` is lane ``l % LANES`` of block ``l // LANES``). The world's bodies are
     the passes' body rows ``offset`` on and the ground is row ``ground``, so several worlds laid out in one
     set of blocks share no body and a wave's blocks may hold manifolds of several; ``slots[k]``: the point
     slot (``point_at``) of the world's point ``k``. The arithmetic of ``contacts.prepare`` and ``substep.base_separations``; softness row 1
-    where a side is static (the ground or a static box); impulses as ``recall`` left them in the table. A
+    where a side is static (the ground or a static box); impulses as ``recall_impulses`` left them in
+    ``impulses`` (the table holds the points as ``collide`` found them: its columns ``NX`` to ``DEPTH``). A
     missing second point has zeros; lanes without a manifold are ``empty_lanes``' and the effective masses
     ``effective_masses``', once the blocks are full. Not ``whole``: the blocks hold this layout of the same
     manifolds from the last step (the same pairs in the same lanes), so what depends on the pairs alone
@@ -125,7 +126,7 @@ def lay_out(x: np.ndarray, y: np.ndarray, inv_mass: np.ndarray, inv_inertia: np.
                 record[p + R_RAX], record[p + R_RAY] = rax, ray
                 record[p + R_RBX], record[p + R_RBY] = rbx, rby
                 record[p + R_BASE] = -table[k, DEPTH] - ((rbx - rax) * nx + (rby - ray) * ny)
-                record[p + R_PN], record[p + R_PT] = table[k, PN], table[k, PT]
+                record[p + R_PN], record[p + R_PT] = impulses[k, 0], impulses[k, 1]
         begin = tally[v]
 
 
