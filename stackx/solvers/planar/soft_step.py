@@ -95,27 +95,40 @@ class PlanarSoftStepParams(SoftStepParams):
 
 class Workspace:
     """What ``soft_step_advance``'s threads step their rows in, kept by the solver from one call to the next
-    (made again when the threads or the room change): per thread, ``GROUP`` rows' recalled impulses of
-    ``room`` points (``impulses``; the points are in each row's own table, ``kept.Kept``) and blocks for
-    ``blocks`` blocks (``record``, ``sides``, ``wide.block_workspace``), which grow to what the last call
-    needed. Everything a call reads there it has written first, so a call steps as in fresh memory; made
-    afresh by every call, the megabytes of a large batch's tables and blocks were faulted in page by page
-    each time (on 64 rows of a 20-row pyramid stepped a step a call, 3 to 4% of the step). Unfilled:
-    zeroing a pile's room costs more than its bookkeeping."""
+    (made again when the threads, the room or the boxes change): per thread, ``GROUP`` rows' recalled
+    impulses of ``room`` points (``impulses``; the points are in each row's own table, ``kept.Kept``),
+    their lanes (``wave`` to ``used``, as ``lane_workspace`` makes them), the rows of ``GROUP`` worlds of
+    ``bodies`` boxes and the ground (``start``, ``body_rows``), and blocks for ``blocks`` blocks
+    (``record``, ``sides``, ``wide.block_workspace``), which grow to what the last call needed. Everything
+    a call reads there it has written first, so a call steps as in fresh memory; made afresh by every call,
+    the megabytes of a large batch's tables and blocks were faulted in page by page each time (on 64 rows
+    of a 20-row pyramid stepped a step a call, 3 to 4% of the step), and the quarter megabyte of lanes
+    and body rows made afresh by every group of rows was handed back to the system and faulted in again
+    by the next (on 64 rows of a 20-row pyramid, about 2% of the step). Unfilled: zeroing a pile's room
+    costs more than its bookkeeping."""
 
-    def __init__(self, threads: int, room: int, blocks: int = 1) -> None:
+    def __init__(self, threads: int, room: int, bodies: int, blocks: int = 1) -> None:
         self.impulses = np.empty((threads, GROUP, room, 2))
+        self.wave = np.empty((threads, GROUP, room), np.int64)
+        self.place = np.empty((threads, GROUP, room + 1), np.int64)
+        self.slots = np.empty((threads, GROUP, room), np.uint64)
+        self.ends = np.empty((threads, room + 1), np.uint64)
+        self.used = np.empty((threads, room + 1), np.int64)
+        self.start = np.empty((threads, GROUP * bodies, 3))
+        self.body_rows = np.empty((threads, GROUP * bodies + 1, BODY_COLUMNS))
         self.record = np.empty((threads, blocks * BLOCK))
         self.sides = np.empty((threads, blocks * LANES, 2), np.uint64)
         self.blocks = np.zeros(threads, np.int64)  # the blocks each thread stepped in, by the last call
 
-    def fits(self, threads: int, room: int) -> bool:
-        """Whether this has tables for ``threads`` threads of ``room`` points."""
-        return self.impulses.shape[:3] == (threads, GROUP, room)
+    def fits(self, threads: int, room: int, bodies: int) -> bool:
+        """Whether this has room for ``threads`` threads of ``room`` points and ``bodies`` boxes a row."""
+        return self.impulses.shape[:3] == (threads, GROUP, room) and self.start.shape[1] == GROUP * bodies
 
     def arrays(self) -> tuple[np.ndarray, ...]:
-        """``(impulses, record, sides, blocks)``, as ``soft_step_advance`` takes them."""
-        return self.impulses, self.record, self.sides, self.blocks
+        """``(impulses, wave, place, slots, ends, used, start, body_rows, record, sides, blocks)``, as
+        ``soft_step_advance`` takes them."""
+        return (self.impulses, self.wave, self.place, self.slots, self.ends, self.used, self.start,
+                self.body_rows, self.record, self.sides, self.blocks)
 
     def grow(self) -> None:
         """Blocks for as many as the last call grew to, where a thread needed more than there were."""
@@ -225,7 +238,9 @@ def soft_step_advance(x: np.ndarray, y: np.ndarray, angle: np.ndarray, vx: np.nd
                       kept_count: np.ndarray, kept_at: np.ndarray, kept_near: np.ndarray, kept_fat: np.ndarray,
                       last: np.ndarray, peak: np.ndarray, reach: np.ndarray, touched: np.ndarray,
                       launch: np.ndarray, groups: np.ndarray, chunks: np.ndarray, impulses_room: np.ndarray,
-                      records: np.ndarray, sides_room: np.ndarray, blocks: np.ndarray,
+                      wave_room: np.ndarray, place_room: np.ndarray, slots_room: np.ndarray,
+                      ends_room: np.ndarray, used_room: np.ndarray, start_room: np.ndarray,
+                      body_room: np.ndarray, records: np.ndarray, sides_room: np.ndarray, blocks: np.ndarray,
                       first: np.ndarray, order: np.ndarray, tally: np.ndarray, waves: np.ndarray,
                       ordered: np.ndarray, steps: int) -> None:
     """``steps`` steps of every batch row, in place, the rows ``groups[i]`` to ``groups[i + 1]`` stepped
@@ -235,7 +250,8 @@ def soft_step_advance(x: np.ndarray, y: np.ndarray, angle: np.ndarray, vx: np.nd
     for them (``watch_impulses``), else nothing; the ``kept_`` arrays (``kept.Kept``) carry the contacts
     found where a call ends to the next call, and are the tables each row's steps find their contacts in.
 
-    Thread ``t`` steps its chunk with its own impulses ``impulses_room[t, r]`` and blocks ``records[t]``,
+    Thread ``t`` steps its chunk with its own impulses ``impulses_room[t, r]``, lanes ``wave_room[t]`` to
+    ``used_room[t]``, body rows ``start_room[t]``, ``body_room[t]`` and blocks ``records[t]``,
     ``sides_room[t]`` (``Workspace``), grown for the call when they are too small;
     ``blocks[t]`` gets the blocks it stepped in. ``first`` to ``ordered`` hold each row's wave order
     (``WaveOrders``).
@@ -254,8 +270,9 @@ def soft_step_advance(x: np.ndarray, y: np.ndarray, angle: np.ndarray, vx: np.nd
             record, sides = step_rows(lo, hi, x, y, angle, vx, vy, w, inv_mass, inv_inertia, hx, hy, friction, g,
                                       dt, substeps, hertz, damping_ratio, push_out, relax, warm, speculative, keys,
                                       carried, held, applied, kept_ids, kept_points, kept_count, kept_at, kept_near,
-                                      kept_fat, last, peak, reach, touched, launch, impulses_of, record,
-                                      sides, first[lo:hi], order[lo:hi], tally[lo:hi], waves[lo:hi],
+                                      kept_fat, last, peak, reach, touched, launch, impulses_of,
+                                      wave_room[t], place_room[t], slots_room[t], ends_room[t], used_room[t],
+                                      start_room[t], body_room[t], record, sides, first[lo:hi], order[lo:hi], tally[lo:hi], waves[lo:hi],
                                       ordered[lo:hi], steps)
         blocks[t] = sides.shape[0] // LANES
 
@@ -269,7 +286,8 @@ def step_rows(lo: int, hi: int, x: np.ndarray, y: np.ndarray, angle: np.ndarray,
               applied: np.ndarray, kept_ids: np.ndarray, kept_points: np.ndarray, kept_count: np.ndarray,
               kept_at: np.ndarray, kept_near: np.ndarray, kept_fat: np.ndarray, last: np.ndarray, peak: np.ndarray,
               reach: np.ndarray, touched: np.ndarray, launch: np.ndarray, impulses_of: list[np.ndarray],
-              record: np.ndarray, sides: np.ndarray, first: np.ndarray,
+              wave: np.ndarray, place: np.ndarray, slots: np.ndarray, ends: np.ndarray, used: np.ndarray,
+              start: np.ndarray, bodies: np.ndarray, record: np.ndarray, sides: np.ndarray, first: np.ndarray,
               order: np.ndarray, tally: np.ndarray, waves: np.ndarray, ordered: np.ndarray,
               steps: int) -> tuple[np.ndarray, np.ndarray]:
     """``steps`` steps of rows ``lo`` to ``hi``, which share their substep, number of substeps, relax and
@@ -279,7 +297,10 @@ def step_rows(lo: int, hi: int, x: np.ndarray, y: np.ndarray, angle: np.ndarray,
     stepping the row alone gives; a pass over several worlds keeps more independent visits in flight (a
     pass over one pyramid waits on its chain of waves). Row ``b`` finds its contacts in its own table
     ``kept_ids[b]``, ``kept_points[b]`` (``kept.Kept``; replaced for the call by a larger one when its points
-    outgrow it) and recalls their impulses into ``impulses_of[r]`` (the same), and the blocks are
+    outgrow it) and recalls their impulses into ``impulses_of[r]`` (the same); its lanes are row ``r`` of
+    ``wave``, ``place``, ``slots`` (``lane_workspace``'s, for ``GROUP`` rows: the same again), its bodies' rows
+    ``start`` and ``bodies`` from ``r`` times the boxes on, the ground's the last row of ``bodies``; the
+    blocks are
     ``record`` and ``sides`` (``wide.block_workspace``), grown when too small; returns the blocks. The rows'
     wave orders are ``first`` to ``ordered`` (``WaveOrders``), replaced for the call by room for more when
     a row's points outgrow them (and then marked as none when it ends)."""
@@ -301,12 +322,9 @@ def step_rows(lo: int, hi: int, x: np.ndarray, y: np.ndarray, angle: np.ndarray,
     room = 0
     for r in range(worlds):
         room = max(room, ids_of[r].shape[0])
-    wave, place, slots, ends, used = lane_workspace(room, worlds)
     kept_orders = True  # whether the orders are the ones kept for the next call
     latest = np.empty(n, np.int64)
-    start = np.empty((worlds * n, 3))  # where each body was when the step began
-    bodies = np.empty((worlds * n + 1, BODY_COLUMNS))  # row r's bodies from r n on, the ground's last
-    ground = worlds * n
+    ground = bodies.shape[0] - 1  # ``start``: where each body was when the step began
     for r in range(worlds):
         b = lo + r
         count[r] = take_back(x[b], y[b], angle[b], hx[b], hy[b], inv_mass[b], kept_count[b], kept_at[b],
@@ -416,7 +434,7 @@ class PlanarSoftStep(PlanarMemorySolver):
         self.speculative = self.column("speculative")
         self.applied: np.ndarray | None = None  # per row and point, what the last step applied (applied.py)
         self.kept: Kept | None = None  # per row, the contacts found where the last call ended (kept.py)
-        self.work: Workspace | None = None  # per thread, the tables and blocks the calls step in
+        self.work: Workspace | None = None  # per thread, the impulses, lanes and blocks the calls step in
         self.orders: WaveOrders | None = None  # per row, the wave order of its last step
 
     @classmethod
@@ -450,8 +468,8 @@ class PlanarSoftStep(PlanarMemorySolver):
         groups = self.row_groups(s.x)
         threads = spread(s.x)  # the groups split evenly over the threads, as numba splits a prange
         chunks = (np.arange(threads + 1) * (len(groups) - 1)) // threads
-        if self.work is None or not self.work.fits(threads, keys.shape[1]):
-            self.work = Workspace(threads, keys.shape[1])
+        if self.work is None or not self.work.fits(threads, keys.shape[1], s.bodies):
+            self.work = Workspace(threads, keys.shape[1], s.bodies)
         if self.orders is None or not self.orders.fits(s.batch, keys.shape[1]):
             self.orders = WaveOrders(s.batch, keys.shape[1])
         soft_step_advance(s.x, s.y, s.angle, s.vx, s.vy, s.w, s.inv_mass, s.inv_inertia, s.hx, s.hy, s.friction,
