@@ -11,7 +11,8 @@ from stackx.models.planar.state import PlanarState
 from stackx.solvers.planar.contacts import (A, B, DEPTH, FEATURE, KN, KT, MU, NX, NY, PN, PT, PX, PY, TARGET,
                                             anchor_locals, apply_impulse, block_normal, contact_workspace,
                                             correct_positions, find_contacts, normal_visit, prepare, recall,
-                                            relative_velocity, remember, separation_push)
+                                            recall_impulses, relative_velocity, remember, same_pairs,
+                                            separation_push)
 from tests.planar.worlds import lowest_corner, world
 
 
@@ -157,6 +158,28 @@ def test_memory_finds_corners_that_swapped_places_in_the_list() -> None:
     recall(ids, table, count, keys, carried, count)
     for k in range(count):  # every point gets its own impulses back, the swapped pair included
         assert (table[k, PN], table[k, PT]) == (k + 1.0, -k - 1.0)
+
+
+def test_recalling_tells_whether_the_points_are_between_the_last_steps_pairs() -> None:
+    """``recall_impulses`` says, on the way, what ``same_pairs`` says: yes for the same pairs (features may
+    differ), no for a point between other bodies, one point more or fewer; the impulses are ``recall``'s."""
+    s = world(SCENE)
+    ids, table, count = _table(s)
+    keys = np.array([[ids[k, A], ids[k, B], ids[k, FEATURE]] for k in range(count)], np.int64)
+    carried = np.stack([np.arange(count) + 1.0, -np.arange(count) - 1.0], axis=1)
+    other = keys.copy()
+    other[count - 1, 1] = other[count - 1, 1] + 1  # its last point between other bodies
+    turned = keys.copy()
+    turned[0, 2] = turned[0, 2] + 1  # the same pairs, a corner's feature changed
+    for memory, held in ((keys, count), (turned, count), (other, count), (keys, count - 1)):
+        impulses = np.full((count, 2), np.nan)
+        table[:count, PN] = table[:count, PT] = np.nan
+        same = recall_impulses(ids, count, memory, carried, held, impulses)
+        assert same == same_pairs(ids, count, memory, held)
+        recall(ids, table, count, memory, carried, held)
+        assert impulses.tobytes() == np.ascontiguousarray(table[:count, PN:PT + 1]).tobytes()
+    assert recall_impulses(ids, count, turned, carried, count, np.empty((count, 2)))
+    assert not recall_impulses(ids, count, other, carried, count, np.empty((count, 2)))
 
 
 def test_the_position_pass_measures_the_depth_where_the_box_has_turned_to() -> None:

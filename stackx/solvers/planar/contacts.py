@@ -339,19 +339,23 @@ def recall(ids: np.ndarray, table: np.ndarray, count: int, keys: np.ndarray, car
 
 @leaf
 def recall_impulses(ids: np.ndarray, count: int, keys: np.ndarray, carried: np.ndarray, held: int,
-                    impulses: np.ndarray) -> None:
+                    impulses: np.ndarray) -> bool:
     """``recall`` into ``impulses`` ``(room, 2)``: each point's normal and tangent impulses from the last
     step's point with the same ``(A, B, FEATURE)``, 0 for a new point (written: no clearing needed first).
     ``collide`` lists points by ``(A, B)`` in increasing order (the ground's first), and so does the memory,
     so one walk down both lists finds every match. A step lists each ``(A, B, FEATURE)`` once, so a point
     whose key is the memory's at its own place (a pile at rest, the same corners touching) is that match,
-    found without the walk."""
+    found without the walk. Returns ``same_pairs``, found on the way."""
+    same = count == held
     j = 0
     for k in range(count):
         a, b, f = ids[k, A], ids[k, B], ids[k, FEATURE]
-        if k < held and keys[k, 0] == a and keys[k, 1] == b and keys[k, 2] == f:
-            impulses[k, 0], impulses[k, 1] = carried[k, 0], carried[k, 1]
-            continue
+        if k < held and keys[k, 0] == a and keys[k, 1] == b:
+            if keys[k, 2] == f:
+                impulses[k, 0], impulses[k, 1] = carried[k, 0], carried[k, 1]
+                continue
+        else:
+            same = False
         while j < held and (keys[j, 0] < a or (keys[j, 0] == a and keys[j, 1] < b)):
             j += 1
         i = j
@@ -362,6 +366,7 @@ def recall_impulses(ids: np.ndarray, count: int, keys: np.ndarray, carried: np.n
                 break
             i += 1
         impulses[k, 0], impulses[k, 1] = pn, pt
+    return same
 
 
 @leaf

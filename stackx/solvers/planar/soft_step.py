@@ -348,15 +348,16 @@ def step_rows(lo: int, hi: int, x: np.ndarray, y: np.ndarray, angle: np.ndarray,
             kept_orders = False
         for r in range(worlds):
             b, ids = lo + r, ids_of[r]
-            # the last step's pairs again (a pile at rest): the same manifolds, so the wave order found for them
-            same = same_pairs(ids, count[r], keys[b], held[b]) and ordered[r] == count[r]
-            kept_pairs = kept_pairs and same
             if impulses_of[r].shape[0] < count[r]:  # the points outgrew the room: as large as their table
                 impulses_of[r] = np.empty((ids.shape[0], 2))
-            if warm[b]:
-                recall_impulses(ids, count[r], keys[b], carried[b], held[b], impulses_of[r])
+            if warm[b]:  # the impulses recalled, and whether the points' pairs are the last step's
+                same = recall_impulses(ids, count[r], keys[b], carried[b], held[b], impulses_of[r])
             else:
+                same = same_pairs(ids, count[r], keys[b], held[b])
                 impulses_of[r][:count[r]] = 0.0
+            # the last step's pairs again (a pile at rest): the same manifolds, so the wave order found for them
+            same = same and ordered[r] == count[r]
+            kept_pairs = kept_pairs and same
             if not same:
                 m = manifold_starts(ids, count[r], first[r])
                 waves[r] = wavefronts(ids, first[r], m, latest, wave[r], tally[r], order[r])
