@@ -256,9 +256,9 @@ def soft_step_advance(x: np.ndarray, y: np.ndarray, angle: np.ndarray, vx: np.nd
     ``blocks[t]`` gets the blocks it stepped in. ``first`` to ``ordered`` hold each row's wave order
     (``WaveOrders``).
 
-    A chunk's groups share one set of impulses and blocks: memory taken afresh for every group would
-    be handed back to the system and faulted in again page by page, which on 64 rows of a 20-row pyramid
-    cost about a tenth of a step."""
+    A chunk's groups share one set of impulses, lanes, body rows and blocks: memory taken afresh for every
+    group would be handed back to the system and faulted in again page by page, which on 64 rows of a
+    20-row pyramid cost about a tenth of a step."""
     for t in prange(chunks.shape[0] - 1):
         most = 1
         for i in range(chunks[t], chunks[t + 1]):
@@ -272,8 +272,8 @@ def soft_step_advance(x: np.ndarray, y: np.ndarray, angle: np.ndarray, vx: np.nd
                                       carried, held, applied, kept_ids, kept_points, kept_count, kept_at, kept_near,
                                       kept_fat, last, peak, reach, touched, launch, impulses_of,
                                       wave_room[t], place_room[t], slots_room[t], ends_room[t], used_room[t],
-                                      start_room[t], body_room[t], record, sides, first[lo:hi], order[lo:hi], tally[lo:hi], waves[lo:hi],
-                                      ordered[lo:hi], steps)
+                                      start_room[t], body_room[t], record, sides, first[lo:hi], order[lo:hi],
+                                      tally[lo:hi], waves[lo:hi], ordered[lo:hi], steps)
         blocks[t] = sides.shape[0] // LANES
 
 
@@ -298,10 +298,10 @@ def step_rows(lo: int, hi: int, x: np.ndarray, y: np.ndarray, angle: np.ndarray,
     pass over one pyramid waits on its chain of waves). Row ``b`` finds its contacts in its own table
     ``kept_ids[b]``, ``kept_points[b]`` (``kept.Kept``; replaced for the call by a larger one when its points
     outgrow it) and recalls their impulses into ``impulses_of[r]`` (the same); its lanes are row ``r`` of
-    ``wave``, ``place``, ``slots`` (``lane_workspace``'s, for ``GROUP`` rows: the same again), its bodies' rows
-    ``start`` and ``bodies`` from ``r`` times the boxes on, the ground's the last row of ``bodies``; the
-    blocks are
-    ``record`` and ``sides`` (``wide.block_workspace``), grown when too small; returns the blocks. The rows'
+    ``wave``, ``place``, ``slots`` (``lane_workspace``'s, for ``GROUP`` rows: the same again), its bodies'
+    rows ``start`` (where each was when the step began) and ``bodies`` from ``r`` times the boxes on, the
+    ground's the last row of ``bodies``; the blocks are ``record`` and ``sides`` (``wide.block_workspace``),
+    grown when too small; returns the blocks. The rows'
     wave orders are ``first`` to ``ordered`` (``WaveOrders``), replaced for the call by room for more when
     a row's points outgrow them (and then marked as none when it ends)."""
     worlds = hi - lo
@@ -324,7 +324,7 @@ def step_rows(lo: int, hi: int, x: np.ndarray, y: np.ndarray, angle: np.ndarray,
         room = max(room, ids_of[r].shape[0])
     kept_orders = True  # whether the orders are the ones kept for the next call
     latest = np.empty(n, np.int64)
-    ground = bodies.shape[0] - 1  # ``start``: where each body was when the step began
+    ground = bodies.shape[0] - 1
     for r in range(worlds):
         b = lo + r
         count[r] = take_back(x[b], y[b], angle[b], hx[b], hy[b], inv_mass[b], kept_count[b], kept_at[b],
@@ -369,9 +369,9 @@ def step_rows(lo: int, hi: int, x: np.ndarray, y: np.ndarray, angle: np.ndarray,
             laid = False
         for r in range(worlds):  # the same manifolds in the same lanes: what depends on the pairs alone is there
             b = lo + r
-            lay_out(x[b], y[b], inv_mass[b], inv_inertia[b], friction[b], ids_of[r], table_of[r], impulses_of[r], first[r],
-                    order[r], waves[r], tally[r], softness[r], place[r], r * n, ground, not (laid and kept_pairs),
-                    sides, slots[r], record)
+            lay_out(x[b], y[b], inv_mass[b], inv_inertia[b], friction[b], ids_of[r], table_of[r], impulses_of[r],
+                    first[r], order[r], waves[r], tally[r], softness[r], place[r], r * n, ground,
+                    not (laid and kept_pairs), sides, slots[r], record)
         laid = True
         for v in range(most):
             empty_lanes(record, sides, used[v], ends[v] * LANES, ground)
