@@ -72,7 +72,7 @@ def main() -> None:
         parser.error("--batch, --steps, --calls, --row-steps, --repeats and --cores must be at least 1")
     us = run(args.batch, args.steps, args.row_steps, args.repeats, args.calls)
     split = us["batch"] / args.cores
-    calls = f", {args.calls} calls of {args.steps} steps" if args.calls > 1 else ""
+    calls = f", {args.calls} calls of {args.steps} step{'s' if args.steps > 1 else ''}" if args.calls > 1 else ""
     print(f"pyramid-20, CPU µs on one thread: batch of {args.batch}{calls} {us['batch']:.1f} per world-step, one row "
           f"{us['one row']:.1f} per step, {BOX2D} {us[BOX2D]:.1f} per world-step; the batch split over "
           f"{args.cores} cores without loss: {split:.1f} per world-step ({against(split, us[BOX2D])})")
