@@ -11,7 +11,7 @@ import pytest
 
 from stackx import kernel
 from stackx.models.planar.broad import candidate_pairs
-from stackx.models.planar.collide import box_points, collide, ground_points, shapes
+from stackx.models.planar.collide import COLUMNS, box_points, collide, ground_points, shapes
 
 
 def every_pair(x: np.ndarray, y: np.ndarray, angle: np.ndarray, hx: np.ndarray, hy: np.ndarray,
@@ -26,9 +26,9 @@ def every_pair(x: np.ndarray, y: np.ndarray, angle: np.ndarray, hx: np.ndarray, 
     cos, sin = np.cos(angle), np.sin(angle)
     reach_x = [abs(cos[i]) * hx[i] + abs(sin[i]) * hy[i] for i in range(bodies)]
     reach_y = [abs(sin[i]) * hx[i] + abs(cos[i]) * hy[i] for i in range(bodies)]
-    corners, faces = np.empty((bodies, 4, 2)), np.empty((bodies, 4, 4))
+    boxes = np.empty((bodies, COLUMNS))
     with kernel.compiled(False):
-        shapes(x, y, cos, sin, hx, hy, corners, faces)
+        shapes(x, y, angle, hx, hy, boxes)
         for i in range(bodies):
             if not static[i] and y[i] - reach_y[i] <= margin:
                 n = ground_points(i, x[i], y[i], cos[i], sin[i], hx[i], hy[i], margin, n, *out)
@@ -39,7 +39,7 @@ def every_pair(x: np.ndarray, y: np.ndarray, angle: np.ndarray, hx: np.ndarray, 
                 if (abs(x[i] - x[j]) > reach_x[i] + reach_x[j] + margin
                         or abs(y[i] - y[j]) > reach_y[i] + reach_y[j] + margin):
                     continue
-                n = pair(i, j, x, y, corners, faces, margin, n, *out)
+                n = pair(i, j, boxes, margin, n, *out)
     return n, out
 
 

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from stackx import kernel
-from stackx.models.planar.collide import ABSOLUTE_BIAS, REFERENCE_BIAS, collide
+from stackx.models.planar.collide import ABSOLUTE_BIAS, CORNER, FACE, REFERENCE_BIAS, X, Y, collide
 from tests.planar.test_broad import every_pair
 
 
@@ -76,9 +76,12 @@ def manifold(i: int, j: int, x: np.ndarray, y: np.ndarray, corners: np.ndarray, 
     return points
 
 
-def written_out_pair(i: int, j: int, x: np.ndarray, y: np.ndarray, corners: np.ndarray, faces: np.ndarray,
-                     margin: float, n: int, *out: np.ndarray) -> int:
-    """``manifold``'s points stored as ``box_points`` stores them, after the ``n`` already there."""
+def written_out_pair(i: int, j: int, boxes: np.ndarray, margin: float, n: int, *out: np.ndarray) -> int:
+    """``manifold``'s points stored as ``box_points`` stores them, after the ``n`` already there, from the
+    boxes' centres, corners and faces in their rows of ``shapes``."""
+    x, y = boxes[:, X], boxes[:, Y]
+    corners = boxes[:, CORNER:CORNER + 8].reshape(-1, 4, 2)
+    faces = boxes[:, FACE:FACE + 16].reshape(-1, 4, 4)
     for point in manifold(i, j, x, y, corners, faces, margin):
         a, b, nx, ny, px, py, depth, feature = point
         out[0][n], out[1][n], out[2][n], out[3][n], out[4][n], out[5][n] = a, b, (nx, ny), (px, py), depth, feature

@@ -22,11 +22,17 @@ from __future__ import annotations
 import numpy as np
 
 from stackx.kernel import inlined, kernel, leaf
-from stackx.models.planar.broad import ROUNDING, bounds, candidate_pairs, inside, widen
+from stackx.models.planar.broad import ROUNDING, candidate_pairs, inside, widen
 
 GROUND = -1
 REFERENCE_BIAS = 0.98  # box b becomes the reference only when clearly better: keeps the choice from flipping
 ABSOLUTE_BIAS = 0.001  # m, added to the bias for faces nearly equal (the stack's resting contact)
+
+# a box's row in the narrow phase's table (``shapes``): what testing a pair reads of both boxes, side by side
+X, Y, COS, SIN, REACH_X, REACH_Y, HALF, SCALE = range(8)  # centre, turn, bounding half-sizes, ``beaten``'s terms
+FACE = 8  # faces 0 to 3 (+x, +y, -x, -y of the box's frame), four columns each: ``face_axis``
+CORNER = 24  # corners 0 to 3 (from (+hx, +hy) counter-clockwise), two columns each: x, y
+COLUMNS = 32
 
 
 @kernel
@@ -41,21 +47,30 @@ def face_axis(x: float, y: float, c: float, s: float, hx: float, hy: float, face
 
 
 @leaf
-def shapes(x: np.ndarray, y: np.ndarray, cos: np.ndarray, sin: np.ndarray, hx: np.ndarray, hy: np.ndarray,
-           corners: np.ndarray, faces: np.ndarray) -> None:
-    """Every box's corners in the world (``corners[i, corner]``: x, y; corner 0 at ``(+hx, +hy)`` of its own
-    frame, then counter-clockwise) and faces (``faces[i, face]``: ``face_axis``), found once a step: each
-    pair the narrow phase tests reads them instead of turning both boxes again."""
+def shapes(x: np.ndarray, y: np.ndarray, angle: np.ndarray, hx: np.ndarray, hy: np.ndarray,
+           boxes: np.ndarray) -> None:
+    """Every box's row of the narrow phase's table ``boxes`` (``(bodies, COLUMNS)``), found once a call: its
+    centre, the cosine and sine of its angle, the half-sizes of its axis-aligned bounding box (``reach_x =
+    |cos| hx + |sin| hy``, the same along y), its smaller half-extent and the sum of the sizes of its
+    numbers (``beaten``'s), its faces (``face_axis``) and its corners in the world. Each pair the narrow
+    phase tests reads the two boxes' rows instead of turning both boxes again, from one array: a pair's
+    dozens of reads then share one address each box, where a dozen arrays kept a dozen."""
     for i in range(x.shape[0]):
-        c, s = cos[i], sin[i]
+        c, s = np.cos(angle[i]), np.sin(angle[i])
+        boxes[i, X], boxes[i, Y], boxes[i, COS], boxes[i, SIN] = x[i], y[i], c, s
+        boxes[i, REACH_X] = abs(c) * hx[i] + abs(s) * hy[i]
+        boxes[i, REACH_Y] = abs(s) * hx[i] + abs(c) * hy[i]
+        boxes[i, HALF] = min(abs(hx[i]), abs(hy[i]))
+        boxes[i, SCALE] = abs(x[i]) + abs(y[i]) + abs(hx[i]) + abs(hy[i])
         for corner in range(4):
             px = hx[i] if corner == 0 or corner == 3 else -hx[i]
             py = hy[i] if corner < 2 else -hy[i]
-            corners[i, corner, 0] = x[i] + c * px - s * py
-            corners[i, corner, 1] = y[i] + s * px + c * py
+            boxes[i, CORNER + 2 * corner] = x[i] + c * px - s * py
+            boxes[i, CORNER + 2 * corner + 1] = y[i] + s * px + c * py
         for face in range(4):
             nx, ny, extent, width = face_axis(x[i], y[i], c, s, hx[i], hy[i], face)
-            faces[i, face, 0], faces[i, face, 1], faces[i, face, 2], faces[i, face, 3] = nx, ny, extent, width
+            at = FACE + 4 * face
+            boxes[i, at], boxes[i, at + 1], boxes[i, at + 2], boxes[i, at + 3] = nx, ny, extent, width
 
 
 @inlined
@@ -72,8 +87,7 @@ def deepest(ux: float, uy: float, n0x: float, n0y: float, n1x: float, n1y: float
 
 
 @inlined
-def separation(a: int, b: int, x: np.ndarray, y: np.ndarray, corners: np.ndarray,
-               faces: np.ndarray) -> tuple[float, int]:
+def separation(a: int, b: int, boxes: np.ndarray) -> tuple[float, int]:
     """The largest separation of box b from a face of box a (negative: the overlap along that face's normal)
     and that face (the first of equals): per face of a, the deepest corner of b below its plane.
 
@@ -83,15 +97,15 @@ def separation(a: int, b: int, x: np.ndarray, y: np.ndarray, corners: np.ndarray
     as the original, negated). Half the multiplications of projecting on every face, the same bits; the
     minimum is taken as ``d if d < low else low``, as ``if d < low: low = d`` does (a corner that is not a
     number never counts), which compiles without branches; the four corners written out, not looped over."""
-    xa, ya = x[a], y[a]
-    n0x, n0y, hx = faces[a, 0, 0], faces[a, 0, 1], faces[a, 0, 2]
-    n1x, n1y, hy = faces[a, 1, 0], faces[a, 1, 1], faces[a, 1, 2]
+    xa, ya = boxes[a, X], boxes[a, Y]
+    n0x, n0y, hx = boxes[a, FACE], boxes[a, FACE + 1], boxes[a, FACE + 2]
+    n1x, n1y, hy = boxes[a, FACE + 4], boxes[a, FACE + 5], boxes[a, FACE + 6]
     lows = (np.inf, np.inf, np.inf, np.inf)
-    lows = deepest(corners[b, 0, 0] - xa, corners[b, 0, 1] - ya, n0x, n0y, n1x, n1y, hx, hy, lows)
-    lows = deepest(corners[b, 1, 0] - xa, corners[b, 1, 1] - ya, n0x, n0y, n1x, n1y, hx, hy, lows)
-    lows = deepest(corners[b, 2, 0] - xa, corners[b, 2, 1] - ya, n0x, n0y, n1x, n1y, hx, hy, lows)
-    low0, low1, low2, low3 = deepest(corners[b, 3, 0] - xa, corners[b, 3, 1] - ya, n0x, n0y, n1x, n1y, hx, hy,
-                                     lows)
+    lows = deepest(boxes[b, CORNER] - xa, boxes[b, CORNER + 1] - ya, n0x, n0y, n1x, n1y, hx, hy, lows)
+    lows = deepest(boxes[b, CORNER + 2] - xa, boxes[b, CORNER + 3] - ya, n0x, n0y, n1x, n1y, hx, hy, lows)
+    lows = deepest(boxes[b, CORNER + 4] - xa, boxes[b, CORNER + 5] - ya, n0x, n0y, n1x, n1y, hx, hy, lows)
+    low0, low1, low2, low3 = deepest(boxes[b, CORNER + 6] - xa, boxes[b, CORNER + 7] - ya, n0x, n0y, n1x, n1y,
+                                     hx, hy, lows)
     best, face = low0, 0
     if low1 > best:
         best, face = low1, 1
@@ -145,7 +159,7 @@ def ground_points(i: int, x: float, y: float, c: float, s: float, hx: float, hy:
 
 
 @inlined
-def beaten(a: int, b: int, x: np.ndarray, y: np.ndarray, faces: np.ndarray, below: float) -> bool:
+def beaten(a: int, b: int, boxes: np.ndarray, below: float) -> bool:
     """Whether every face of box b surely separates box a by less than ``below``, from the centres alone:
     then ``separation(b, a)`` need not be found (its face cannot be the reference, nor its separation pass
     the margin).
@@ -153,52 +167,54 @@ def beaten(a: int, b: int, x: np.ndarray, y: np.ndarray, faces: np.ndarray, belo
     The deepest corner of a below a face of b lies at least a's smaller half-extent past a's centre
     (``hx |cos| + hy |sin| >= min(hx, hy)`` for a unit normal), so that face's separation is at most the
     centre's height over the face, less that half-extent. The bound must clear ``below`` by more than the
-    rounding of both it and the corners (``ROUNDING`` of the boxes' scale); a bound that is not a number
-    clears nothing. In a pile, where a pair's own face is the clear reference, this halves the faces tested."""
-    dx, dy = x[a] - x[b], y[a] - y[b]
-    over0 = abs(dx * faces[b, 0, 0] + dy * faces[b, 0, 1]) - faces[b, 0, 2]
-    over1 = abs(dx * faces[b, 1, 0] + dy * faces[b, 1, 1]) - faces[b, 1, 2]
-    half = min(abs(faces[a, 0, 2]), abs(faces[a, 1, 2]))
-    scale = 1.0 + abs(x[a]) + abs(y[a]) + abs(x[b]) + abs(y[b]) + abs(faces[a, 0, 2]) + abs(faces[a, 1, 2]) + abs(
-        faces[b, 0, 2]) + abs(faces[b, 1, 2])
+    rounding of both it and the corners (``ROUNDING`` of the boxes' scale, the sizes of their centres and
+    half-extents); a bound that is not a number clears nothing. In a pile, where a pair's own face is the
+    clear reference, this halves the faces tested."""
+    dx, dy = boxes[a, X] - boxes[b, X], boxes[a, Y] - boxes[b, Y]
+    over0 = abs(dx * boxes[b, FACE] + dy * boxes[b, FACE + 1]) - boxes[b, FACE + 2]
+    over1 = abs(dx * boxes[b, FACE + 4] + dy * boxes[b, FACE + 5]) - boxes[b, FACE + 6]
+    half = boxes[a, HALF]
+    scale = 1.0 + boxes[a, SCALE] + boxes[b, SCALE]
     if not np.isfinite(over0 + over1 + half + scale):  # a max or min could drop a number that is none
         return False
     return max(over0, over1) - half + ROUNDING * scale < below
 
 
 @inlined
-def box_points(i: int, j: int, x: np.ndarray, y: np.ndarray, corners: np.ndarray, faces: np.ndarray,
-               margin: float, n: int, body_a: np.ndarray, body_b: np.ndarray, normal: np.ndarray,
+def box_points(i: int, j: int, boxes: np.ndarray, margin: float, n: int, body_a: np.ndarray, body_b: np.ndarray, normal: np.ndarray,
                point: np.ndarray, depths: np.ndarray, features: np.ndarray) -> int:
     """The manifold of boxes ``i`` and ``j`` (normal from i to j): reference face, incident face, clipping;
-    the boxes' corners and faces from ``shapes``."""
-    sep_i, face_i = separation(i, j, x, y, corners, faces)
+    the boxes' rows of ``shapes``."""
+    sep_i, face_i = separation(i, j, boxes)
     if sep_i > margin:  # a face of i keeps j farther than the margin: no contact (nor any test of j's faces)
         return n
     threshold = REFERENCE_BIAS * sep_i + ABSOLUTE_BIAS  # what a face of j must beat to be the reference
     flip, face_j = False, 0
-    if not beaten(i, j, x, y, faces, min(threshold, margin)):
-        sep_j, face_j = separation(j, i, x, y, corners, faces)
+    if not beaten(i, j, boxes, min(threshold, margin)):
+        sep_j, face_j = separation(j, i, boxes)
         if sep_j > margin:
             return n
         flip = sep_j > threshold
     r, k = (j, i) if flip else (i, j)  # reference and incident box
     face = face_j if flip else face_i
-    nx, ny, extent, width = faces[r, face, 0], faces[r, face, 1], faces[r, face, 2], faces[r, face, 3]
+    at = FACE + 4 * face
+    nx, ny, extent, width = boxes[r, at], boxes[r, at + 1], boxes[r, at + 2], boxes[r, at + 3]
     tx, ty = -ny, nx
     # the face of k most opposed to the normal; faces 2 and 3 give the negatives of faces 0 and 1
-    d0 = faces[k, 0, 0] * nx + faces[k, 0, 1] * ny
-    d1 = faces[k, 1, 0] * nx + faces[k, 1, 1] * ny
+    d0 = boxes[k, FACE] * nx + boxes[k, FACE + 1] * ny
+    d1 = boxes[k, FACE + 4] * nx + boxes[k, FACE + 5] * ny
     incident, lowest = 0, np.inf
     for f, d in ((0, d0), (1, d1), (2, -d0), (3, -d1)):
         if d < lowest:
             incident, lowest = f, d
-    fx, fy, e, w = faces[k, incident, 0], faces[k, incident, 1], faces[k, incident, 2], faces[k, incident, 3]
+    at = FACE + 4 * incident
+    fx, fy, e, w = boxes[k, at], boxes[k, at + 1], boxes[k, at + 2], boxes[k, at + 3]
     gx, gy = -fy, fx
-    e0x, e0y = x[k] + fx * e + gx * w, y[k] + fy * e + gy * w  # the incident edge's two ends
-    e1x, e1y = x[k] + fx * e - gx * w, y[k] + fy * e - gy * w
-    u0 = (e0x - x[r]) * tx + (e0y - y[r]) * ty
-    u1 = (e1x - x[r]) * tx + (e1y - y[r]) * ty
+    xk, yk, xr, yr = boxes[k, X], boxes[k, Y], boxes[r, X], boxes[r, Y]
+    e0x, e0y = xk + fx * e + gx * w, yk + fy * e + gy * w  # the incident edge's two ends
+    e1x, e1y = xk + fx * e - gx * w, yk + fy * e - gy * w
+    u0 = (e0x - xr) * tx + (e0y - yr) * ty
+    u1 = (e1x - xr) * tx + (e1y - yr) * ty
     for bound in (-width, width):  # clip the edge to the reference face's width, one side at a time
         out0 = u0 < bound if bound < 0 else u0 > bound
         out1 = u1 < bound if bound < 0 else u1 > bound
@@ -214,7 +230,7 @@ def box_points(i: int, j: int, x: np.ndarray, y: np.ndarray, corners: np.ndarray
     sign = -1.0 if flip else 1.0  # the normal goes from i to j
     for end in range(2):
         ex, ey = (e0x, e0y) if end == 0 else (e1x, e1y)
-        sep = (ex - x[r]) * nx + (ey - y[r]) * ny - extent
+        sep = (ex - xr) * nx + (ey - yr) * ny - extent
         if sep <= margin:
             feature = (1 if flip else 0) * 64 + face * 16 + incident * 4 + end
             n = add_point(n, i, j, sign * nx, sign * ny, ex - 0.5 * sep * nx, ey - 0.5 * sep * ny,
@@ -223,23 +239,23 @@ def box_points(i: int, j: int, x: np.ndarray, y: np.ndarray, corners: np.ndarray
 
 
 @leaf
-def pair_points(near: np.ndarray, x: np.ndarray, y: np.ndarray, reach_x: np.ndarray, reach_y: np.ndarray,
-                corners: np.ndarray, faces: np.ndarray, margin: float, n: int, body_a: np.ndarray,
+def pair_points(near: np.ndarray, boxes: np.ndarray, margin: float, n: int, body_a: np.ndarray,
                 body_b: np.ndarray, normal: np.ndarray, point: np.ndarray, depths: np.ndarray,
                 features: np.ndarray) -> int:
     """The points of the ``near[0]`` candidate pairs (keys ``i * bodies + j``, increasing, in ``near[1:]``)
     whose bounding boxes come within ``margin``, in their order, after the ``n`` already stored; returns the
     new count. One loop with the narrow phase written into it: a call per pair would hand over a dozen
     arrays each time."""
-    bodies = x.shape[0]
+    bodies = boxes.shape[0]
     i = 0
     for p in range(1, near[0] + 1):
         while near[p] >= (i + 1) * bodies:  # the keys come sorted: i found without a division per pair
             i += 1
         j = near[p] - i * bodies
-        if abs(x[i] - x[j]) > reach_x[i] + reach_x[j] + margin or abs(y[i] - y[j]) > reach_y[i] + reach_y[j] + margin:
+        if (abs(boxes[i, X] - boxes[j, X]) > boxes[i, REACH_X] + boxes[j, REACH_X] + margin
+                or abs(boxes[i, Y] - boxes[j, Y]) > boxes[i, REACH_Y] + boxes[j, REACH_Y] + margin):
             continue
-        n = box_points(i, j, x, y, corners, faces, margin, n, body_a, body_b, normal, point, depths, features)
+        n = box_points(i, j, boxes, margin, n, body_a, body_b, normal, point, depths, features)
     return n
 
 
@@ -277,15 +293,13 @@ def collide_near(x: np.ndarray, y: np.ndarray, angle: np.ndarray, hx: np.ndarray
     (a larger array when the candidates outgrew it)."""
     bodies = x.shape[0]
     n = 0
-    cos, sin = np.empty(bodies), np.empty(bodies)
-    reach_x, reach_y = np.empty(bodies), np.empty(bodies)
-    bounds(angle, hx, hy, cos, sin, reach_x, reach_y)
-    corners, faces = np.empty((bodies, 4, 2)), np.empty((bodies, 4, 4))
-    shapes(x, y, cos, sin, hx, hy, corners, faces)
+    boxes = np.empty((bodies, COLUMNS))
+    shapes(x, y, angle, hx, hy, boxes)
     for i in range(bodies):
-        if not static[i] and y[i] - reach_y[i] <= margin:
-            n = ground_points(i, x[i], y[i], cos[i], sin[i], hx[i], hy[i], margin, n, body_a, body_b, normal,
-                              point, depths, features)
+        if not static[i] and y[i] - boxes[i, REACH_Y] <= margin:
+            n = ground_points(i, x[i], y[i], boxes[i, COS], boxes[i, SIN], hx[i], hy[i], margin, n, body_a, body_b,
+                              normal, point, depths, features)
+    reach_x, reach_y = boxes[:, REACH_X], boxes[:, REACH_Y]
     if near[0] < 0 or not inside(x, y, reach_x, reach_y, margin, wide):
         pairs = candidate_pairs(x, y, reach_x, reach_y, static, fat, near[1:])
         if pairs > near.shape[0] - 1:
@@ -293,6 +307,5 @@ def collide_near(x: np.ndarray, y: np.ndarray, angle: np.ndarray, hx: np.ndarray
             pairs = candidate_pairs(x, y, reach_x, reach_y, static, fat, near[1:])
         near[0] = pairs
         widen(x, y, reach_x, reach_y, fat, wide)
-    n = pair_points(near, x, y, reach_x, reach_y, corners, faces, margin, n, body_a, body_b, normal, point,
-                    depths, features)
+    n = pair_points(near, boxes, margin, n, body_a, body_b, normal, point, depths, features)
     return n, near
