@@ -4,8 +4,8 @@ Testing every pair of boxes costs ``n^2 / 2`` bounding-box tests, a millisecond 
 boxes. Here the boxes' bounding boxes (grown by half the contact margin each) are put on a **uniform grid**
 whose cell is about one box across (the mean bounding size of the movable boxes plus the margin): a box
 covers one to four cells, and only boxes sharing a cell are candidates, so a pile's cost grows with its boxes
-and the pairs that touch, not with their square. A pair is reported once, from the lowest cell the two boxes
-share. Boxes covering more than ``LARGE`` cells (a long ground slab, a ramp) are kept off the grid and tested
+and the pairs that touch, not with their square. A pair is reported once, from the first cell of the two
+boxes' shared ones that the earlier box visits (each box marks the later boxes it has met). Boxes covering more than ``LARGE`` cells (a long ground slab, a ramp) are kept off the grid and tested
 against every box directly, which costs ``n`` per such box instead of filling hundreds of cells. Two static
 boxes are never a candidate: they never move, so they never need a contact.
 
@@ -120,6 +120,7 @@ def candidate_pairs(x: np.ndarray, y: np.ndarray, reach_x: np.ndarray, reach_y: 
                 box[fill[k]] = i
                 fill[k] += 1
     partners = np.empty(n, np.int64)
+    seen = np.full(n, -1, np.int64)  # the last box that met each box in a cell
     found, next_large = 0, 0
     for i in range(n):  # box by box: the keys come out sorted, each box's few partners put in order
         m = 0
@@ -130,15 +131,10 @@ def candidate_pairs(x: np.ndarray, y: np.ndarray, reach_x: np.ndarray, reach_y: 
                     j = box[e]
                     if j <= i:
                         break
-                    if static[i] and static[j]:
+                    if seen[j] == i:  # met in another cell both cover (or, hashed, sharing a slot)
                         continue
-                    # the lowest cell both cover reports the pair; the others skip it (and, hashed, a cell
-                    # sharing the slot is neither)
-                    if cx != max(cells[i, 0], cells[j, 0]) or cy != max(cells[i, 2], cells[j, 2]):
-                        continue
-                    if not dense and (cx > cells[j, 1] or cy > cells[j, 3]):
-                        continue
-                    if overlap(lo_x, hi_x, lo_y, hi_y, i, j):
+                    seen[j] = i
+                    if not (static[i] and static[j]) and overlap(lo_x, hi_x, lo_y, hi_y, i, j):
                         partners[m] = j
                         m += 1
         while large[next_large] <= i:
