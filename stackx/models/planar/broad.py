@@ -1,13 +1,14 @@
 """The planar model's broad phase: which pairs of boxes are close enough for the narrow phase to look at.
 
-Testing every pair of boxes costs ``n^2 / 2`` bounding-box tests, a millisecond a step at a few hundred
-boxes. Here the boxes' bounding boxes (grown by half the contact margin each) are put on a **uniform grid**
-whose cell is about one box across (the mean bounding size of the movable boxes plus the margin): a box
-covers one to four cells, and only boxes sharing a cell are candidates, so a pile's cost grows with its boxes
-and the pairs that touch, not with their square. A pair is reported once, from the first cell of the two
-boxes' shared ones that the earlier box visits (each box marks the later boxes it has met). Boxes covering more than ``LARGE`` cells (a long ground slab, a ramp) are kept off the grid and tested
-against every box directly, which costs ``n`` per such box instead of filling hundreds of cells. Two static
-boxes are never a candidate: they never move, so they never need a contact.
+Testing every pair of boxes costs ``n^2 / 2`` bounding-box tests, a millisecond a step at a few hundred boxes.
+Here the boxes' bounding boxes (grown by half the contact margin each) are put on a **uniform grid** whose cell
+is about one box across (the mean bounding size of the movable boxes plus the margin): a box covers one to four
+cells, and only boxes sharing a cell are candidates, so a pile's cost grows with its boxes and the pairs that
+touch, not with their square. A pair is reported once, from the first cell of the two boxes' shared ones that
+the earlier box visits (each box marks the later boxes it has met). Boxes covering more than ``LARGE`` cells (a
+long ground slab, a ramp) are kept off the grid and tested against every box directly, which costs ``n`` per
+such box instead of filling hundreds of cells. Two static boxes are never a candidate: they never move, so they
+never need a contact.
 
 A pile's span of cells is numbered as it lies (a counting sort of the entries by cell: no per-cell lists);
 boxes spread far apart, whose span would be mostly empty cells, are hashed into twice as many buckets as
