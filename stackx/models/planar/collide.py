@@ -206,6 +206,24 @@ def beaten(a: int, b: int, boxes: np.ndarray, below: float) -> bool:
 
 
 @inlined
+def clipped(bound: float, e0x: float, e0y: float, u0: float, e1x: float, e1y: float,
+            u1: float) -> tuple[bool, float, float, float, float, float, float]:
+    """An edge from ``e0`` to ``e1`` (at ``u0`` and ``u1`` along the reference face) cut where it passes
+    ``bound``: the part above a negative bound, below any other; whether none of it is left, and its ends."""
+    out0 = u0 < bound if bound < 0 else u0 > bound
+    out1 = u1 < bound if bound < 0 else u1 > bound
+    if out0 and out1:
+        return True, e0x, e0y, u0, e1x, e1y, u1
+    if out0 or out1:
+        t = (bound - u0) / (u1 - u0)
+        px, py = e0x + t * (e1x - e0x), e0y + t * (e1y - e0y)
+        if out0:
+            return False, px, py, bound, e1x, e1y, u1
+        return False, e0x, e0y, u0, px, py, bound
+    return False, e0x, e0y, u0, e1x, e1y, u1
+
+
+@inlined
 def box_points(i: int, j: int, boxes: np.ndarray, margin: float, n: int, body_a: np.ndarray, body_b: np.ndarray, normal: np.ndarray,
                point: np.ndarray, depths: np.ndarray, features: np.ndarray) -> int:
     """The manifold of boxes ``i`` and ``j`` (normal from i to j): reference face, incident face, clipping;
@@ -228,10 +246,13 @@ def box_points(i: int, j: int, boxes: np.ndarray, margin: float, n: int, body_a:
     # the face of k most opposed to the normal; faces 2 and 3 give the negatives of faces 0 and 1
     d0 = boxes[k, FACE] * nx + boxes[k, FACE + 1] * ny
     d1 = boxes[k, FACE + 4] * nx + boxes[k, FACE + 5] * ny
-    incident, lowest = 0, np.inf
-    for f, d in ((0, d0), (1, d1), (2, -d0), (3, -d1)):
-        if d < lowest:
-            incident, lowest = f, d
+    incident, lowest = 0, (d0 if d0 < np.inf else np.inf)  # the first of equals; one not a number never
+    if d1 < lowest:
+        incident, lowest = 1, d1
+    if -d0 < lowest:
+        incident, lowest = 2, -d0
+    if -d1 < lowest:
+        incident = 3
     at = FACE + 4 * incident
     fx, fy, e, w = boxes[k, at], boxes[k, at + 1], boxes[k, at + 2], boxes[k, at + 3]
     gx, gy = -fy, fx
@@ -240,26 +261,23 @@ def box_points(i: int, j: int, boxes: np.ndarray, margin: float, n: int, body_a:
     e1x, e1y = xk + fx * e - gx * w, yk + fy * e - gy * w
     u0 = (e0x - xr) * tx + (e0y - yr) * ty
     u1 = (e1x - xr) * tx + (e1y - yr) * ty
-    for bound in (-width, width):  # clip the edge to the reference face's width, one side at a time
-        out0 = u0 < bound if bound < 0 else u0 > bound
-        out1 = u1 < bound if bound < 0 else u1 > bound
-        if out0 and out1:
-            return n
-        if out0 or out1:
-            t = (bound - u0) / (u1 - u0)
-            px, py = e0x + t * (e1x - e0x), e0y + t * (e1y - e0y)
-            if out0:
-                e0x, e0y, u0 = px, py, bound
-            else:
-                e1x, e1y, u1 = px, py, bound
+    # clip the edge to the reference face's width, one side at a time
+    gone, e0x, e0y, u0, e1x, e1y, u1 = clipped(-width, e0x, e0y, u0, e1x, e1y, u1)
+    if gone:
+        return n
+    gone, e0x, e0y, u0, e1x, e1y, u1 = clipped(width, e0x, e0y, u0, e1x, e1y, u1)
+    if gone:
+        return n
     sign = -1.0 if flip else 1.0  # the normal goes from i to j
-    for end in range(2):
-        ex, ey = (e0x, e0y) if end == 0 else (e1x, e1y)
-        sep = (ex - xr) * nx + (ey - yr) * ny - extent
-        if sep <= margin:
-            feature = (1 if flip else 0) * 64 + face * 16 + incident * 4 + end
-            n = add_point(n, i, j, sign * nx, sign * ny, ex - 0.5 * sep * nx, ey - 0.5 * sep * ny,
-                          -sep, feature, body_a, body_b, normal, point, depths, features)
+    feature = (1 if flip else 0) * 64 + face * 16 + incident * 4  # and the end
+    sep = (e0x - xr) * nx + (e0y - yr) * ny - extent
+    if sep <= margin:
+        n = add_point(n, i, j, sign * nx, sign * ny, e0x - 0.5 * sep * nx, e0y - 0.5 * sep * ny, -sep, feature,
+                      body_a, body_b, normal, point, depths, features)
+    sep = (e1x - xr) * nx + (e1y - yr) * ny - extent
+    if sep <= margin:
+        n = add_point(n, i, j, sign * nx, sign * ny, e1x - 0.5 * sep * nx, e1y - 0.5 * sep * ny, -sep,
+                      feature + 1, body_a, body_b, normal, point, depths, features)
     return n
 
 
