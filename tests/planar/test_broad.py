@@ -11,7 +11,26 @@ import pytest
 
 from stackx import kernel
 from stackx.models.planar.broad import candidate_pairs
-from stackx.models.planar.collide import COLUMNS, box_points, collide, ground_points, shapes
+from stackx.models.planar.collide import COLUMNS, GROUND, box_points, collide, shapes
+
+
+def lowest_corners(i: int, x: float, y: float, c: float, s: float, hx: float, hy: float, margin: float, n: int,
+                   *out: np.ndarray) -> int:
+    """Box ``i``'s points on the ground, written out: its (at most two) lowest corners (the first of equals)
+    within ``margin`` of it, normal straight up, placed half-way down, stored after the ``n`` already there."""
+    heights = []
+    for corner in range(4):
+        px = hx if corner == 0 or corner == 3 else -hx
+        py = hy if corner < 2 else -hy
+        heights.append((x + c * px - s * py, y + s * px + c * py, corner))
+    lowest = [h for h in heights if h[1] < np.inf]  # a corner whose height is not a number is never lowest
+    lowest.sort(key=lambda h: (h[1], h[2]))
+    for cx, cy, corner in lowest[:2]:
+        if cy <= margin:
+            out[0][n], out[1][n], out[2][n], out[3][n], out[4][n], out[5][n] = (
+                GROUND, i, (0.0, 1.0), (cx, 0.5 * cy), -cy, corner)
+            n += 1
+    return n
 
 
 def every_pair(x: np.ndarray, y: np.ndarray, angle: np.ndarray, hx: np.ndarray, hy: np.ndarray,
@@ -31,7 +50,7 @@ def every_pair(x: np.ndarray, y: np.ndarray, angle: np.ndarray, hx: np.ndarray, 
         shapes(x, y, angle, hx, hy, boxes)
         for i in range(bodies):
             if not static[i] and y[i] - reach_y[i] <= margin:
-                n = ground_points(i, x[i], y[i], cos[i], sin[i], hx[i], hy[i], margin, n, *out)
+                n = lowest_corners(i, x[i], y[i], cos[i], sin[i], hx[i], hy[i], margin, n, *out)
         for i in range(bodies):
             for j in range(i + 1, bodies):
                 if static[i] and static[j]:

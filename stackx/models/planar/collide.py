@@ -29,10 +29,10 @@ REFERENCE_BIAS = 0.98  # box b becomes the reference only when clearly better: k
 ABSOLUTE_BIAS = 0.001  # m, added to the bias for faces nearly equal (the stack's resting contact)
 
 # a box's row in the narrow phase's table (``shapes``): what testing a pair reads of both boxes, side by side
-X, Y, COS, SIN, REACH_X, REACH_Y, HALF, SCALE = range(8)  # centre, turn, bounding half-sizes, ``beaten``'s terms
-FACE = 8  # faces 0 to 3 (+x, +y, -x, -y of the box's frame), four columns each: ``face_axis``
-CORNER = 24  # corners 0 to 3 (from (+hx, +hy) counter-clockwise), two columns each: x, y
-COLUMNS = 32
+X, Y, REACH_X, REACH_Y, HALF, SCALE = range(6)  # centre, bounding half-sizes, ``beaten``'s terms
+FACE = 6  # faces 0 to 3 (+x, +y, -x, -y of the box's frame), four columns each: ``face_axis``
+CORNER = 22  # corners 0 to 3 (from (+hx, +hy) counter-clockwise), two columns each: x, y
+COLUMNS = 30
 
 
 @kernel
@@ -50,14 +50,14 @@ def face_axis(x: float, y: float, c: float, s: float, hx: float, hy: float, face
 def shapes(x: np.ndarray, y: np.ndarray, angle: np.ndarray, hx: np.ndarray, hy: np.ndarray,
            boxes: np.ndarray) -> None:
     """Every box's row of the narrow phase's table ``boxes`` (``(bodies, COLUMNS)``), found once a call: its
-    centre, the cosine and sine of its angle, the half-sizes of its axis-aligned bounding box (``reach_x =
+    centre, the half-sizes of its axis-aligned bounding box (``reach_x =
     |cos| hx + |sin| hy``, the same along y), its smaller half-extent and the sum of the sizes of its
     numbers (``beaten``'s), its faces (``face_axis``) and its corners in the world. Each pair the narrow
     phase tests reads the two boxes' rows instead of turning both boxes again, from one array: a pair's
     dozens of reads then share one address each box, where a dozen arrays kept a dozen."""
     for i in range(x.shape[0]):
         c, s = np.cos(angle[i]), np.sin(angle[i])
-        boxes[i, X], boxes[i, Y], boxes[i, COS], boxes[i, SIN] = x[i], y[i], c, s
+        boxes[i, X], boxes[i, Y] = x[i], y[i]
         boxes[i, REACH_X] = abs(c) * hx[i] + abs(s) * hy[i]
         boxes[i, REACH_Y] = abs(s) * hx[i] + abs(c) * hy[i]
         boxes[i, HALF] = min(abs(hx[i]), abs(hy[i]))
@@ -156,30 +156,32 @@ def add_point(n: int, a: int, b: int, nx: float, ny: float, px: float, py: float
 
 
 @leaf
-def ground_points(i: int, x: float, y: float, c: float, s: float, hx: float, hy: float, margin: float, n: int,
-                  body_a: np.ndarray, body_b: np.ndarray, normal: np.ndarray, point: np.ndarray,
-                  depths: np.ndarray, features: np.ndarray) -> int:
-    """The (at most two) lowest corners of box ``i`` (turned by an angle of cosine ``c`` and sine ``s``) within
-    ``margin`` of the ground, normal straight up."""
-    first, second = -1, -1
-    h1, h2 = np.inf, np.inf
-    for corner in range(4):
-        px = hx if corner == 0 or corner == 3 else -hx
-        py = hy if corner < 2 else -hy
-        cy = y + s * px + c * py
-        if cy < h1:
-            second, h2 = first, h1
-            first, h1 = corner, cy
-        elif cy < h2:
-            second, h2 = corner, cy
-    for corner in (first, second):
-        px = hx if corner == 0 or corner == 3 else -hx
-        py = hy if corner < 2 else -hy
-        cx = x + c * px - s * py
-        cy = y + s * px + c * py
-        if cy <= margin:
-            n = add_point(n, GROUND, i, 0.0, 1.0, cx, 0.5 * cy, -cy, corner, body_a, body_b, normal, point,
-                          depths, features)
+def ground_points(boxes: np.ndarray, static: np.ndarray, margin: float, n: int, body_a: np.ndarray,
+                  body_b: np.ndarray, normal: np.ndarray, point: np.ndarray, depths: np.ndarray,
+                  features: np.ndarray) -> int:
+    """Box by box, the (at most two) lowest corners of each movable box whose bounding box comes within
+    ``margin`` of the ground that are within ``margin`` of it, normal straight up, after the ``n`` points
+    already stored; returns the new count. The corners are the boxes' rows of ``shapes``; one call for every
+    box, as a call per box would hand over the point arrays each time."""
+    for i in range(boxes.shape[0]):
+        if static[i] or not boxes[i, Y] - boxes[i, REACH_Y] <= margin:
+            continue
+        first, second = -1, -1
+        h1, h2 = np.inf, np.inf
+        for corner in range(4):
+            cy = boxes[i, CORNER + 2 * corner + 1]
+            if cy < h1:
+                second, h2 = first, h1
+                first, h1 = corner, cy
+            elif cy < h2:
+                second, h2 = corner, cy
+        for end in range(2):
+            corner = first if end == 0 else second
+            at = CORNER + 2 * (corner if corner >= 0 else 1)  # none found (not numbers): the corner (-hx, +hy)
+            cx, cy = boxes[i, at], boxes[i, at + 1]
+            if cy <= margin:
+                n = add_point(n, GROUND, i, 0.0, 1.0, cx, 0.5 * cy, -cy, corner, body_a, body_b, normal, point,
+                              depths, features)
     return n
 
 
@@ -338,10 +340,7 @@ def collide_near(x: np.ndarray, y: np.ndarray, angle: np.ndarray, hx: np.ndarray
     n = 0
     boxes = np.empty((bodies, COLUMNS))
     shapes(x, y, angle, hx, hy, boxes)
-    for i in range(bodies):
-        if not static[i] and y[i] - boxes[i, REACH_Y] <= margin:
-            n = ground_points(i, x[i], y[i], boxes[i, COS], boxes[i, SIN], hx[i], hy[i], margin, n, body_a, body_b,
-                              normal, point, depths, features)
+    n = ground_points(boxes, static, margin, n, body_a, body_b, normal, point, depths, features)
     reach_x, reach_y = boxes[:, REACH_X], boxes[:, REACH_Y]
     if near[0] < 0 or not inside(x, y, reach_x, reach_y, margin, wide):
         pairs = candidate_pairs(x, y, reach_x, reach_y, static, fat, near[1:])
