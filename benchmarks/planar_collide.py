@@ -1,5 +1,7 @@
 """``python -m benchmarks.planar_collide``: µs per call of the planar model's collision test on the piles of
-``benchmarks.planar``, compiled, one thread.
+``benchmarks.planar``, compiled, one thread, where ``--settle`` steps of ``planar-soft-step`` (4 substeps) left
+them (a pile that has settled: boxes turned by a little, as the soft step tests them), the points written into
+a contact table's columns as the soft step has them written (``contacts.find_contacts_near``).
 
 Timed per pile, each as a compiled loop of ``--calls`` calls (so no Python call is in the figure), taking
 turns (``benchmarks.timing.interleaved``, CPU time), medians of ``--repeats``:
@@ -65,21 +67,27 @@ def main(argv: list[str] | None = None) -> None:
                         help=f"piles (default: pyramid-20, pyramid-40, brick wall 65): {', '.join(scenes_names())}")
     parser.add_argument("--calls", type=int, default=200, help="calls per timed sample (default 200)")
     parser.add_argument("--repeats", type=int, default=15, help="samples (default 15)")
+    parser.add_argument("--settle", type=int, default=5,
+                        help="steps of planar-soft-step before the piles are tested (default 5; 0: as built)")
     args = parser.parse_args(argv)
 
-    from benchmarks.planar import scenes
-    from stackx.solvers.planar.contacts import LOOSENESS, near_workspace
+    from benchmarks.planar import Stackx, scenes
+    from stackx.solvers.planar.contacts import A, B, DEPTH, FEATURE, LOOSENESS, NX, NY, PX, PY, contact_workspace, \
+        near_workspace
 
     collide_loop, broad_loop = timed_loops()
     built = scenes(0)
     fat = MARGIN + 2.0 * LOOSENESS
     for name in args.piles:
         state = built[name]
+        if args.settle > 0:
+            settling = Stackx("planar-soft-step", {"substeps": 4}, state)
+            settling.prepare(args.settle)()
+            state = settling.last
         x, y, angle = state.x[0].copy(), state.y[0].copy(), state.angle[0].copy()
         hx, hy, static = state.hx[0].copy(), state.hy[0].copy(), state.inv_mass[0] == 0.0
-        room = 8 * len(x) + 8
-        out = (np.zeros(room, np.int64), np.zeros(room, np.int64), np.zeros((room, 2)), np.zeros((room, 2)),
-               np.zeros(room), np.zeros(room, np.int64))
+        ids, table = contact_workspace(8 * len(x) + 8)
+        out = (ids[:, A], ids[:, B], table[:, NX:NY + 1], table[:, PX:PY + 1], table[:, DEPTH], ids[:, FEATURE])
         near, wide = near_workspace(len(x))
         points = collide_loop(1, x, y, angle, hx, hy, static, fat, near, wide, out)  # finds the candidates
         keys = np.empty(near[0] + 1, np.int64)
