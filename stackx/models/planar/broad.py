@@ -105,39 +105,45 @@ def candidate_pairs(x: np.ndarray, y: np.ndarray, reach_x: np.ndarray, reach_y: 
         while slots < 2 * entries:
             slots *= 2
         mask = slots - 1
-    start = np.zeros(slots + 1, np.int64)
+    slot_of = np.empty(entries, np.int64)  # each box's cells' slots, box after box
+    first = np.empty(n + 1, np.int64)  # box i's from first[i] on
+    e = 0
     for i in range(n):
+        first[i] = e
         for cx in range(cells[i, 0], cells[i, 1] + 1):
             for cy in range(cells[i, 2], cells[i, 3] + 1):
-                start[slot(cx, cy, dense, left, low, across, mask) + 1] += 1
+                slot_of[e] = slot(cx, cy, dense, left, low, across, mask)
+                e += 1
+    first[n] = e
+    start = np.zeros(slots + 1, np.int64)
+    for e in range(entries):
+        start[slot_of[e] + 1] += 1
     for k in range(slots):
         start[k + 1] += start[k]
     fill = start[:slots].copy()
     box = np.empty(entries, np.int64)  # each slot's boxes in increasing order: filled box by box
     for i in range(n):
-        for cx in range(cells[i, 0], cells[i, 1] + 1):
-            for cy in range(cells[i, 2], cells[i, 3] + 1):
-                k = slot(cx, cy, dense, left, low, across, mask)
-                box[fill[k]] = i
-                fill[k] += 1
+        for e in range(first[i], first[i + 1]):
+            k = slot_of[e]
+            box[fill[k]] = i
+            fill[k] += 1
     partners = np.empty(n, np.int64)
     seen = np.full(n, -1, np.int64)  # the last box that met each box in a cell
     found, next_large = 0, 0
     for i in range(n):  # box by box: the keys come out sorted, each box's few partners put in order
         m = 0
-        for cx in range(cells[i, 0], cells[i, 1] + 1):
-            for cy in range(cells[i, 2], cells[i, 3] + 1):
-                k = slot(cx, cy, dense, left, low, across, mask)
-                for e in range(start[k + 1] - 1, start[k] - 1, -1):  # the slot's boxes after i, from the last
-                    j = box[e]
-                    if j <= i:
-                        break
-                    if seen[j] == i:  # met in another cell both cover (or, hashed, sharing a slot)
-                        continue
-                    seen[j] = i
-                    if not (static[i] and static[j]) and overlap(lo_x, hi_x, lo_y, hi_y, i, j):
-                        partners[m] = j
-                        m += 1
+        for c in range(first[i], first[i + 1]):
+            k = slot_of[c]
+            for e in range(start[k + 1] - 1, start[k] - 1, -1):  # the slot's boxes after i, from the last
+                j = box[e]
+                if j <= i:
+                    break
+                if seen[j] == i:  # met in another cell both cover (or, hashed, sharing a slot)
+                    continue
+                seen[j] = i
+                if not (static[i] and static[j]) and overlap(lo_x, hi_x, lo_y, hi_y, i, j):
+                    partners[m] = j
+                    m += 1
         while large[next_large] <= i:
             next_large += 1
         if cells[i, 0] > cells[i, 1]:  # off the grid: every later box
