@@ -32,10 +32,10 @@ def timed_loops() -> tuple[Any, Any]:
     """Two compiled loops: ``calls`` collision tests with kept candidates, and ``calls`` broad phases."""
     import numba
 
-    from stackx.models.planar.broad import bounds, candidate_pairs
+    from stackx.models.planar.broad import candidate_pairs
     from stackx.models.planar.collide import collide_near
 
-    collide, pairs, turn = collide_near.build(), candidate_pairs.build(), bounds.build()
+    collide, pairs = collide_near.build(), candidate_pairs.build()
 
     @numba.njit
     def collide_loop(calls: int, x: Any, y: Any, angle: Any, hx: Any, hy: Any, static: Any, fat: float, near: Any,
@@ -48,11 +48,8 @@ def timed_loops() -> tuple[Any, Any]:
         return found
 
     @numba.njit
-    def broad_loop(calls: int, x: Any, y: Any, angle: Any, hx: Any, hy: Any, static: Any, fat: float,
+    def broad_loop(calls: int, x: Any, y: Any, reach_x: Any, reach_y: Any, static: Any, fat: float,
                    keys: Any) -> int:
-        n = x.shape[0]
-        cos, sin, reach_x, reach_y = np.empty(n), np.empty(n), np.empty(n), np.empty(n)
-        turn(angle, hx, hy, cos, sin, reach_x, reach_y)
         found = 0
         for _ in range(calls):
             found += pairs(x, y, reach_x, reach_y, static, fat, keys)
@@ -91,14 +88,16 @@ def main(argv: list[str] | None = None) -> None:
         near, wide = near_workspace(len(x))
         points = collide_loop(1, x, y, angle, hx, hy, static, fat, near, wide, out)  # finds the candidates
         keys = np.empty(near[0] + 1, np.int64)
-        broad_loop(1, x, y, angle, hx, hy, static, fat, keys)
+        reach_x = np.abs(np.cos(angle)) * hx + np.abs(np.sin(angle)) * hy  # the bounding boxes' half-sizes
+        reach_y = np.abs(np.sin(angle)) * hx + np.abs(np.cos(angle)) * hy
+        broad_loop(1, x, y, reach_x, reach_y, static, fat, keys)
 
         def run(loop: Callable[..., int], *given: Any) -> Callable[[], None]:
             return lambda: loop(args.calls, *given)
 
         samples = interleaved({
             "collide": (lambda: run(collide_loop, x, y, angle, hx, hy, static, fat, near, wide, out), args.calls),
-            "broad phase": (lambda: run(broad_loop, x, y, angle, hx, hy, static, fat, keys), args.calls),
+            "broad phase": (lambda: run(broad_loop, x, y, reach_x, reach_y, static, fat, keys), args.calls),
         }, args.repeats, clock=time.process_time)
         us = {key: s.per_unit * 1e6 for key, s in samples.items()}
         print(f"{name}: {len(x)} boxes, {near[0]} candidate pairs, {points} points: collide {us['collide']:.1f} µs "

@@ -34,18 +34,6 @@ ROUNDING = 1e-9  # relative widening of each bound: far above float64 rounding, 
 
 
 @leaf
-def bounds(angle: np.ndarray, hx: np.ndarray, hy: np.ndarray, cos: np.ndarray, sin: np.ndarray,
-           reach_x: np.ndarray, reach_y: np.ndarray) -> None:
-    """Each box's ``cos`` and ``sin`` of its angle and the half-sizes of its axis-aligned bounding box:
-    ``reach_x = |cos| hx + |sin| hy``, and the same along y."""
-    for i in range(angle.shape[0]):
-        cos[i], sin[i] = np.cos(angle[i]), np.sin(angle[i])
-        c, s = abs(cos[i]), abs(sin[i])
-        reach_x[i] = c * hx[i] + s * hy[i]
-        reach_y[i] = s * hx[i] + c * hy[i]
-
-
-@leaf
 def overlap(lo_x: np.ndarray, hi_x: np.ndarray, lo_y: np.ndarray, hi_y: np.ndarray, i: int, j: int) -> bool:
     """Whether the widened bounding boxes of ``i`` and ``j`` overlap; a bound that is not a number overlaps
     everything (as it passes the narrow phase's own test)."""

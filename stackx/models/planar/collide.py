@@ -50,11 +50,12 @@ def face_axis(x: float, y: float, c: float, s: float, hx: float, hy: float, face
 def shapes(x: np.ndarray, y: np.ndarray, angle: np.ndarray, hx: np.ndarray, hy: np.ndarray,
            boxes: np.ndarray) -> None:
     """Every box's row of the narrow phase's table ``boxes`` (``(bodies, COLUMNS)``), found once a call: its
-    centre, the half-sizes of its axis-aligned bounding box (``reach_x =
-    |cos| hx + |sin| hy``, the same along y), its smaller half-extent and the sum of the sizes of its
-    numbers (``beaten``'s), its faces (``face_axis``) and its corners in the world. Each pair the narrow
-    phase tests reads the two boxes' rows instead of turning both boxes again, from one array: a pair's
-    dozens of reads then share one address each box, where a dozen arrays kept a dozen."""
+    centre, the half-sizes of its axis-aligned bounding box (``reach_x = |cos| hx + |sin| hy``, the same
+    along y), its smaller half-extent and the sum of the sizes of its numbers (``beaten``'s), its faces
+    (``face_axis``) and its corners in the world (corner 0 at ``(+hx, +hy)`` of its own frame, then
+    counter-clockwise). Each pair the narrow phase tests reads the two boxes' rows instead of turning both
+    boxes again; one row a box, so that a pair's few dozen reads come from two places in one array instead
+    of from a dozen arrays (each of which the compiled loop must keep the address of)."""
     for i in range(x.shape[0]):
         c, s = np.cos(angle[i]), np.sin(angle[i])
         boxes[i, X], boxes[i, Y] = x[i], y[i]
