@@ -337,11 +337,9 @@ def collide_near(x: np.ndarray, y: np.ndarray, angle: np.ndarray, hx: np.ndarray
     where the boxes are now. A resting pile then pays for no broad phase; a wider ``fat`` keeps candidates
     through larger motions and hands the narrow phase more pairs to reject. Returns the count and ``near``
     (a larger array when the candidates outgrew it)."""
-    bodies = x.shape[0]
-    n = 0
-    boxes = np.empty((bodies, COLUMNS))
+    boxes = np.empty((x.shape[0], COLUMNS))
     shapes(x, y, angle, hx, hy, boxes)
-    n = ground_points(boxes, static, margin, n, body_a, body_b, normal, point, depths, features)
+    n = ground_points(boxes, static, margin, 0, body_a, body_b, normal, point, depths, features)
     reach_x, reach_y = boxes[:, REACH_X], boxes[:, REACH_Y]
     if near[0] < 0 or not inside(x, y, reach_x, reach_y, margin, wide):
         pairs = candidate_pairs(x, y, reach_x, reach_y, static, fat, near[1:])
