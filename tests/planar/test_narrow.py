@@ -11,7 +11,8 @@ import numpy as np
 import pytest
 
 from stackx import kernel
-from stackx.models.planar.collide import ABSOLUTE_BIAS, CORNER, FACE, REFERENCE_BIAS, X, Y, collide
+from stackx.models.planar.collide import (ABSOLUTE_BIAS, COLUMNS, CORNER, FACE, REFERENCE_BIAS, X, Y, collide,
+                                          separation, shapes)
 from tests.planar.test_broad import every_pair
 
 
@@ -144,8 +145,6 @@ def test_collide_gives_the_bytes_of_the_method_written_out(name: str, margin: fl
 def test_separation_is_per_face_the_deepest_corner_also_for_extents_that_are_not_finite(compiled: bool) -> None:
     """``separation`` takes least and greatest projections where a box's extents are finite; where they are
     not numbers or infinite it still gives, per face, the deepest corner's separation as defined."""
-    from stackx.models.planar.collide import COLUMNS, separation, shapes
-
     x, y, angle, hx, hy, _ = stack(2)
     hx[4], hy[9], hx[13], hy[13] = np.nan, np.inf, np.inf, 0.0
     boxes = np.empty((len(x), COLUMNS))
