@@ -227,8 +227,8 @@ def clipped(bound: float, e0x: float, e0y: float, u0: float, e1x: float, e1y: fl
 
 
 @inlined
-def box_points(i: int, j: int, boxes: np.ndarray, margin: float, n: int, body_a: np.ndarray, body_b: np.ndarray, normal: np.ndarray,
-               point: np.ndarray, depths: np.ndarray, features: np.ndarray) -> int:
+def box_points(i: int, j: int, boxes: np.ndarray, margin: float, n: int, body_a: np.ndarray, body_b: np.ndarray,
+               normal: np.ndarray, point: np.ndarray, depths: np.ndarray, features: np.ndarray) -> int:
     """The manifold of boxes ``i`` and ``j`` (normal from i to j): reference face, incident face, clipping;
     the boxes' rows of ``shapes``."""
     sep_i, face_i = separation(i, j, boxes)
