@@ -11,7 +11,8 @@ import numpy as np
 import pytest
 
 from stackx import kernel
-from stackx.models.planar.collide import ABSOLUTE_BIAS, REFERENCE_BIAS, collide
+from stackx.models.planar.collide import (ABSOLUTE_BIAS, COLUMNS, CORNER, FACE, REFERENCE_BIAS, X, Y, collide,
+                                          separation, shapes)
 from tests.planar.test_broad import every_pair
 
 
@@ -76,9 +77,12 @@ def manifold(i: int, j: int, x: np.ndarray, y: np.ndarray, corners: np.ndarray, 
     return points
 
 
-def written_out_pair(i: int, j: int, x: np.ndarray, y: np.ndarray, corners: np.ndarray, faces: np.ndarray,
-                     margin: float, n: int, *out: np.ndarray) -> int:
-    """``manifold``'s points stored as ``box_points`` stores them, after the ``n`` already there."""
+def written_out_pair(i: int, j: int, boxes: np.ndarray, margin: float, n: int, *out: np.ndarray) -> int:
+    """``manifold``'s points stored as ``box_points`` stores them, after the ``n`` already there, from the
+    boxes' centres, corners and faces in their rows of ``shapes``."""
+    x, y = boxes[:, X], boxes[:, Y]
+    corners = boxes[:, CORNER:CORNER + 8].reshape(-1, 4, 2)
+    faces = boxes[:, FACE:FACE + 16].reshape(-1, 4, 4)
     for point in manifold(i, j, x, y, corners, faces, margin):
         a, b, nx, ny, px, py, depth, feature = point
         out[0][n], out[1][n], out[2][n], out[3][n], out[4][n], out[5][n] = a, b, (nx, ny), (px, py), depth, feature
@@ -135,3 +139,34 @@ def test_collide_gives_the_bytes_of_the_method_written_out(name: str, margin: fl
         assert {int(f) >> 6 for f in want[5][:n]} == {0, 1}
     for g, w in zip(got, want):
         assert g[:n].tobytes() == w[:n].tobytes()
+
+
+@pytest.mark.parametrize("compiled", [False, True])
+def test_separation_is_per_face_the_deepest_corner_also_for_extents_that_are_not_finite(compiled: bool) -> None:
+    """``separation`` takes least and greatest projections where a box's extents are finite; where they are
+    not numbers or infinite it still gives, per face, the deepest corner's separation as defined."""
+    x, y, angle, hx, hy, _ = stack(2)
+    hx[4], hy[9], hx[13], hy[13] = np.nan, np.inf, np.inf, 0.0
+    boxes = np.empty((len(x), COLUMNS))
+    with kernel.compiled(False):
+        shapes(x, y, angle, hx, hy, boxes)
+    corners, faces = boxes[:, CORNER:CORNER + 8].reshape(-1, 4, 2), boxes[:, FACE:FACE + 16].reshape(-1, 4, 4)
+    with np.errstate(all="ignore"):
+        for a in range(len(x)):
+            for b in range(len(x)):
+                lows = []
+                for face in range(4):
+                    low = np.inf
+                    for corner in range(4):
+                        d = ((corners[b, corner, 0] - x[a]) * faces[a, face, 0]
+                             + (corners[b, corner, 1] - y[a]) * faces[a, face, 1] - faces[a, face, 2])
+                        if d < low:
+                            low = d
+                    lows.append(low)
+                with kernel.compiled(compiled):
+                    got, got_face = separation(a, b, boxes)
+                want, want_face = lows[0], 0
+                for f in range(1, 4):
+                    if lows[f] > want:
+                        want, want_face = lows[f], f
+                assert got_face == want_face and (got == want or (np.isnan(got) and np.isnan(want)))

@@ -1,20 +1,25 @@
 """The planar model's broad phase: which pairs of boxes are close enough for the narrow phase to look at.
 
-Testing every pair of boxes costs ``n^2 / 2`` bounding-box tests, a millisecond a step at a few hundred
-boxes. Here the boxes' bounding boxes (grown by half the contact margin each) are put on a **uniform grid**
-whose cell is about one box across (the mean bounding size of the movable boxes plus the margin): a box
-covers one to four cells, and only boxes sharing a cell are candidates, so a pile's cost grows with its boxes
-and the pairs that touch, not with their square. A pair is reported once, from the lowest cell the two boxes
-share. Boxes covering more than ``LARGE`` cells (a long ground slab, a ramp) are kept off the grid and tested
-against every box directly, which costs ``n`` per such box instead of filling hundreds of cells. Two static
-boxes are never a candidate: they never move, so they never need a contact.
+Testing every pair of boxes costs ``n^2 / 2`` bounding-box tests, a millisecond a step at a few hundred boxes.
+Here the boxes' bounding boxes (grown by half the contact margin each) are put on a **uniform grid** whose cell
+is about one box across (the mean bounding size of the movable boxes plus the margin): a box covers one to four
+cells, and only boxes sharing a cell are candidates, so a pile's cost grows with its boxes and the pairs that
+touch, not with their square. A pair is reported once, from the first cell of the two boxes' shared ones that
+the earlier box visits (each box marks the later boxes it has met). Boxes covering more than ``LARGE`` cells (a
+long ground slab, a ramp) are kept off the grid and tested against every box directly, which costs ``n`` per
+such box instead of filling hundreds of cells. Two static boxes are never a candidate: they never move, so they
+never need a contact.
 
-The cells are found by hashing into a table of twice as many buckets as there are grid entries (a counting
-sort: no per-cell lists), so memory is linear in the boxes wherever they are. Candidates are returned as keys
-``i * n + j`` (``i < j``) sorted increasingly (``in_order``, a counting sort by ``i``): the narrow phase then visits pairs in index order, as a test of
-every pair does, and a contact's place in the list does not depend on the grid. The grid only filters: it is
-conservative (each bound is widened by a little more than rounding could move it), and the narrow phase
-applies its own exact test to each candidate, so the contacts found are exactly those of the all-pairs test.
+A pile's span of cells is numbered as it lies (a counting sort of the entries by cell: no per-cell lists);
+boxes spread far apart, whose span would be mostly empty cells, are hashed into twice as many buckets as
+there are grid entries instead, so memory is linear in the boxes wherever they are. Candidates are found
+box by box, each box's few partners (the later boxes in the cells it covers, and those off the grid) put in
+order by insertion, so they come out as keys ``i * n + j`` (``i < j``) sorted increasingly with no sort of
+the whole list: the narrow phase then visits pairs in index order, as a test of every pair does, and a
+contact's place in the list does not depend on the grid. The grid only filters: it is conservative (each
+bound is widened by a little more than rounding could move it, and boxes that share a point share that
+point's cell), and the narrow phase applies its own exact test to each candidate, so the contacts found are
+exactly those of the all-pairs test.
 """
 
 from __future__ import annotations
@@ -26,24 +31,6 @@ from stackx.kernel import kernel, leaf
 LARGE = 16  # a box covering more cells than this is tested against every box instead of being gridded
 FARTHEST = 1e12  # cells from the origin beyond which a box is tested against every box (no integer overflow)
 ROUNDING = 1e-9  # relative widening of each bound: far above float64 rounding, far below any contact margin
-
-
-@leaf
-def bounds(angle: np.ndarray, hx: np.ndarray, hy: np.ndarray, cos: np.ndarray, sin: np.ndarray,
-           reach_x: np.ndarray, reach_y: np.ndarray) -> None:
-    """Each box's ``cos`` and ``sin`` of its angle and the half-sizes of its axis-aligned bounding box:
-    ``reach_x = |cos| hx + |sin| hy``, and the same along y."""
-    for i in range(angle.shape[0]):
-        cos[i], sin[i] = np.cos(angle[i]), np.sin(angle[i])
-        c, s = abs(cos[i]), abs(sin[i])
-        reach_x[i] = c * hx[i] + s * hy[i]
-        reach_y[i] = s * hx[i] + c * hy[i]
-
-
-@kernel
-def bucket(cx: int, cy: int, mask: int) -> int:
-    """The hash bucket of cell ``(cx, cy)`` (``mask``: buckets - 1, buckets a power of two)."""
-    return ((cx * 73856093) ^ (cy * 19349663)) & mask
 
 
 @leaf
@@ -70,74 +57,115 @@ def candidate_pairs(x: np.ndarray, y: np.ndarray, reach_x: np.ndarray, reach_y: 
         return 0
     pad = 0.5 * margin + ROUNDING * scale
     cell = size / movable + margin + 2.0 * pad
+    per = 1.0 / cell  # cells found by one rounding: boxes sharing a point share that point's cell
     lo_x, hi_x, lo_y, hi_y = np.empty(n), np.empty(n), np.empty(n), np.empty(n)
     cells = np.empty((n, 4), np.int64)  # first and last cell along x, then y
-    large = np.empty(n, np.int64)
+    large = np.empty(n + 1, np.int64)
     held, entries = 0, 0
+    left, right, low, high = 0, -1, 0, -1  # the gridded boxes' span of cells
     for i in range(n):
         lo_x[i], hi_x[i] = x[i] - reach_x[i] - pad, x[i] + reach_x[i] + pad
         lo_y[i], hi_y[i] = y[i] - reach_y[i] - pad, y[i] + reach_y[i] + pad
         span = LARGE + 1  # a box that is not a number, or too far out to number its cells, is not gridded
         if max(abs(lo_x[i]), abs(hi_x[i]), abs(lo_y[i]), abs(hi_y[i])) < FARTHEST * cell:
-            cells[i, 0], cells[i, 1] = int(np.floor(lo_x[i] / cell)), int(np.floor(hi_x[i] / cell))
-            cells[i, 2], cells[i, 3] = int(np.floor(lo_y[i] / cell)), int(np.floor(hi_y[i] / cell))
+            cells[i, 0], cells[i, 1] = int(np.floor(lo_x[i] * per)), int(np.floor(hi_x[i] * per))
+            cells[i, 2], cells[i, 3] = int(np.floor(lo_y[i] * per)), int(np.floor(hi_y[i] * per))
             span = (cells[i, 1] - cells[i, 0] + 1) * (cells[i, 3] - cells[i, 2] + 1)
         if span > LARGE:
             large[held] = i
             held += 1
             cells[i, 0], cells[i, 1], cells[i, 2], cells[i, 3] = 1, 0, 1, 0  # off the grid: it covers no cell
         else:
+            if entries == 0:
+                left, right, low, high = cells[i, 0], cells[i, 1], cells[i, 2], cells[i, 3]
+            left, right = min(left, cells[i, 0]), max(right, cells[i, 1])
+            low, high = min(low, cells[i, 2]), max(high, cells[i, 3])
             entries += span
-    buckets = 2
-    while buckets < 2 * entries:
-        buckets *= 2
-    mask = buckets - 1
-    start = np.zeros(buckets + 1, np.int64)
+    large[held] = n  # past the last: the scan of the large boxes after a box stops there
+    across = right - left + 1
+    # a pile's span of cells is numbered as it lies (no two cells share a slot, so a slot's entries are one
+    # cell's); boxes spread out are hashed into twice as many slots as entries
+    dense = float(across) * float(high - low + 1) <= 2.0 * entries + 64.0
+    if dense:
+        slots, mask = across * (high - low + 1), 0
+    else:
+        slots = 2
+        while slots < 2 * entries:
+            slots *= 2
+        mask = slots - 1
+    slot_of = np.empty(entries, np.int64)  # each box's cells' slots, box after box
+    first = np.empty(n + 1, np.int64)  # box i's from first[i] on
+    e = 0
     for i in range(n):
+        first[i] = e
         for cx in range(cells[i, 0], cells[i, 1] + 1):
             for cy in range(cells[i, 2], cells[i, 3] + 1):
-                start[bucket(cx, cy, mask) + 1] += 1
-    for k in range(buckets):
+                slot_of[e] = slot(cx, cy, dense, left, low, across, mask)
+                e += 1
+    first[n] = e
+    start = np.zeros(slots + 1, np.int64)
+    for e in range(entries):
+        start[slot_of[e] + 1] += 1
+    for k in range(slots):
         start[k + 1] += start[k]
-    fill = start[:buckets].copy()
-    box = np.empty(entries, np.int64)
-    where = np.empty((entries, 2), np.int64)
+    fill = start[:slots].copy()
+    box = np.empty(entries, np.int64)  # each slot's boxes in increasing order: filled box by box
     for i in range(n):
-        for cx in range(cells[i, 0], cells[i, 1] + 1):
-            for cy in range(cells[i, 2], cells[i, 3] + 1):
-                k = bucket(cx, cy, mask)
-                e = fill[k]
-                box[e], where[e, 0], where[e, 1] = i, cx, cy
-                fill[k] = e + 1
-    found = 0
-    for k in range(buckets):
-        for e in range(start[k], start[k + 1]):
-            i, cx, cy = box[e], where[e, 0], where[e, 1]
-            for f in range(e + 1, start[k + 1]):
-                j = box[f]
-                if where[f, 0] != cx or where[f, 1] != cy or (static[i] and static[j]):
+        for e in range(first[i], first[i + 1]):
+            k = slot_of[e]
+            box[fill[k]] = i
+            fill[k] += 1
+    partners = np.empty(n, np.int64)
+    seen = np.full(n, -1, np.int64)  # the last box that met each box in a cell
+    found, next_large = 0, 0
+    for i in range(n):  # box by box: the keys come out sorted, each box's few partners put in order
+        m = 0
+        for c in range(first[i], first[i + 1]):
+            k = slot_of[c]
+            for e in range(start[k + 1] - 1, start[k] - 1, -1):  # the slot's boxes after i, from the last
+                j = box[e]
+                if j <= i:
+                    break
+                if seen[j] == i:  # met in another cell both cover (or, hashed, sharing a slot)
                     continue
-                # the lowest cell both cover reports the pair; the others skip it
-                if cx != max(cells[i, 0], cells[j, 0]) or cy != max(cells[i, 2], cells[j, 2]):
-                    continue
-                if overlap(lo_x, hi_x, lo_y, hi_y, i, j):
-                    if found < keys.shape[0]:
-                        keys[found] = min(i, j) * n + max(i, j)
-                    found += 1
-    for h in range(held):
-        i = large[h]
-        for j in range(n):
-            if j == i or (static[i] and static[j]):
-                continue
-            if cells[j, 0] > cells[j, 1] and j < i:  # both large: the pair comes once, from the smaller
-                continue
-            if overlap(lo_x, hi_x, lo_y, hi_y, i, j):
-                if found < keys.shape[0]:
-                    keys[found] = min(i, j) * n + max(i, j)
-                found += 1
-    if found <= keys.shape[0]:
-        in_order(keys, found, n, np.zeros(n + 1, np.int64), np.empty(found, np.int64))
+                seen[j] = i
+                if not (static[i] and static[j]) and overlap(lo_x, hi_x, lo_y, hi_y, i, j):
+                    partners[m] = j
+                    m += 1
+        while large[next_large] <= i:
+            next_large += 1
+        if cells[i, 0] > cells[i, 1]:  # off the grid: every later box
+            for j in range(i + 1, n):
+                if not (static[i] and static[j]) and overlap(lo_x, hi_x, lo_y, hi_y, i, j):
+                    partners[m] = j
+                    m += 1
+        else:  # the later boxes off the grid
+            for h in range(next_large, held):
+                j = large[h]
+                if not (static[i] and static[j]) and overlap(lo_x, hi_x, lo_y, hi_y, i, j):
+                    partners[m] = j
+                    m += 1
+        for p in range(1, m):  # a few partners: by insertion
+            j = partners[p]
+            q = p - 1
+            while q >= 0 and partners[q] > j:
+                partners[q + 1] = partners[q]
+                q -= 1
+            partners[q + 1] = j
+        for p in range(m):
+            if found < keys.shape[0]:
+                keys[found] = i * n + partners[p]
+            found += 1
     return found
+
+
+@kernel
+def slot(cx: int, cy: int, dense: bool, left: int, low: int, across: int, mask: int) -> int:
+    """The slot of cell ``(cx, cy)``: its place in the span of cells from ``(left, low)``, ``across`` cells
+    wide (``dense``), else its hash bucket (``mask``: buckets - 1, buckets a power of two)."""
+    if dense:
+        return (cy - low) * across + (cx - left)
+    return ((cx * 73856093) ^ (cy * 19349663)) & mask
 
 
 @leaf
@@ -162,31 +190,3 @@ def inside(x: np.ndarray, y: np.ndarray, reach_x: np.ndarray, reach_y: np.ndarra
                 and y[i] - reach_y[i] - pad >= wide[i, 2] and y[i] + reach_y[i] + pad <= wide[i, 3]):
             return False
     return True
-
-
-@leaf
-def in_order(keys: np.ndarray, count: int, n: int, first: np.ndarray, scratch: np.ndarray) -> None:
-    """Sort the ``count`` pair keys ``i * n + j`` increasingly: a counting sort by ``i`` (``first``: ``n + 1``
-    zeros), then each box's few partners by insertion. Linear in the pairs, where a comparison sort of keys
-    coming in the grid's hash order costs a quarter of the broad phase."""
-    for p in range(count):
-        first[keys[p] // n + 1] += 1
-    for i in range(n):
-        first[i + 1] += first[i]
-    for p in range(count):
-        i = keys[p] // n
-        scratch[first[i]] = keys[p]
-        first[i] += 1
-    begin = 0
-    for i in range(n):
-        end = first[i]  # after placing, first[i] is where box i's partners end
-        for p in range(begin + 1, end):
-            key = scratch[p]
-            q = p - 1
-            while q >= begin and scratch[q] > key:
-                scratch[q + 1] = scratch[q]
-                q -= 1
-            scratch[q + 1] = key
-        begin = end
-    for p in range(count):
-        keys[p] = scratch[p]
