@@ -427,6 +427,22 @@ def soft_pass(bodies: np.ndarray, sides: np.ndarray, record: np.ndarray, waves: 
     separations are measured again when the bodies ``moved`` since the last pass (every pass after
     positions were integrated); otherwise the last pass's, or the layout's where the step begins, serve: the
     same numbers, found once."""
+    if moved:
+        if use_bias:
+            sweep(bodies, sides, record, waves, ends, h, True, push_out, True)
+        else:
+            sweep(bodies, sides, record, waves, ends, h, False, push_out, True)
+    elif use_bias:
+        sweep(bodies, sides, record, waves, ends, h, True, push_out, False)
+    else:
+        sweep(bodies, sides, record, waves, ends, h, False, push_out, False)
+
+
+@inlined
+def sweep(bodies: np.ndarray, sides: np.ndarray, record: np.ndarray, waves: int, ends: np.ndarray, h: float,
+          use_bias: bool, push_out: float, moved: bool) -> None:
+    """``soft_pass``'s walk, inlined where each call's flags are constants, so the compiled loops test
+    neither flag: a relax pass's visits load no softness, and a pass that measures nothing no motion."""
     begin = np.uint64(0)
     for v in range(waves):
         end = ends[v]
