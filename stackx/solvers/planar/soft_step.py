@@ -23,8 +23,9 @@ passes visit them, and each body's velocities and motion since the step began si
 as a last row of zeros. The order is ``wavefront``'s: manifolds in waves that share no body, which gives
 the numbers of visiting them in table order to the bit (see that module), and the manifolds of a wave are
 solved four at a time in the lanes of vector registers, as Box2D v3 solves a graph colour (``wide``). A
-point's separation is measured once per position of the boxes: the relax pass's serves the next substep's
-solve. The contacts found where a call's last step ends start the next call (``kept``).
+point's separation is measured once per position of the boxes: the layout's serves the first solve, the
+relax pass's the next substep's solve. The contacts found where a call's last step ends start the next call
+(``kept``).
 
 A batch steps up to ``GROUP`` consecutive rows of the same substep, substeps, relax and push-out together
 (``step_rows``): each row finds, recalls and orders its own contacts, and one layout holds every row's
@@ -388,8 +389,9 @@ def step_rows(lo: int, hi: int, x: np.ndarray, y: np.ndarray, angle: np.ndarray,
             for r in range(worlds):
                 body_gravity(bodies[r * n:], inv_mass[lo + r], g[lo + r], h)
             warm_start(bodies, sides, record, most, ends)
-            # the relax pass measured the separations where the boxes still are
-            soft_pass(bodies, sides, record, most, ends, h, True, push_out[lo], i == 0 or not relax[lo])
+            # the layout measured the separations where the step begins, and the relax pass where the boxes
+            # still are
+            soft_pass(bodies, sides, record, most, ends, h, True, push_out[lo], i > 0 and not relax[lo])
             for r in range(worlds):
                 b = lo + r
                 integrate_moved(x[b], y[b], angle[b], bodies[r * n:], start[r * n:], h)

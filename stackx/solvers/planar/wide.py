@@ -80,9 +80,11 @@ def lay_out(x: np.ndarray, y: np.ndarray, inv_mass: np.ndarray, inv_inertia: np.
     from lane ``place[v]`` (lane ``l`` is lane ``l % LANES`` of block ``l // LANES``). The world's bodies are
     the passes' body rows ``offset`` on and the ground is row ``ground``, so several worlds laid out in one
     set of blocks share no body and a wave's blocks may hold manifolds of several; ``slots[k]``: the point
-    slot (``point_at``) of the world's point ``k``. The arithmetic of ``contacts.prepare`` and ``substep.base_separations``; softness row 1
-    where a side is static (the ground or a static box); impulses as ``recall_impulses`` left them in
-    ``impulses`` (the table holds the points as ``collide`` found them: its columns ``NX`` to ``DEPTH``). A
+    slot (``point_at``) of the world's point ``k``. The arithmetic of ``contacts.prepare`` and
+    ``substep.base_separations``, and each point's separation where the step begins as ``measure`` finds it,
+    so the step's first pass neither gathers the bodies' motion nor measures; softness row 1 where a side is
+    static (the ground or a static box); impulses as ``recall_impulses`` left them in ``impulses`` (the table
+    holds the points as ``collide`` found them: its columns ``NX`` to ``DEPTH``). A
     missing second point has zeros; lanes without a manifold are ``empty_lanes``' and the effective masses
     ``effective_masses``', once the blocks are full. Not ``whole``: the blocks hold this layout of the same
     manifolds from the last step (the same pairs in the same lanes), so what depends on the pairs alone
@@ -125,7 +127,13 @@ def lay_out(x: np.ndarray, y: np.ndarray, inv_mass: np.ndarray, inv_inertia: np.
                 record[p + R_NX], record[p + R_NY] = nx, ny
                 record[p + R_RAX], record[p + R_RAY] = rax, ray
                 record[p + R_RBX], record[p + R_RBY] = rbx, rby
-                record[p + R_BASE] = -table[k, DEPTH] - ((rbx - rax) * nx + (rby - ray) * ny)
+                base = -table[k, DEPTH] - ((rbx - rax) * nx + (rby - ray) * ny)
+                record[p + R_BASE] = base
+                # ``measure`` where no body has moved yet (no shift, no turn): its products by 1 and by 0 and
+                # its sums with 0 leave each anchor as it is but for a zero's sign, which ``0.0 + r`` gives
+                sx = (0.0 + rbx) - (0.0 + rax)
+                sy = (0.0 + rby) - (0.0 + ray)
+                record[p + R_S] = base + sx * nx + sy * ny
                 record[p + R_PN], record[p + R_PT] = impulses[k, 0], impulses[k, 1]
         begin = tally[v]
 
@@ -270,7 +278,8 @@ def normals(record: np.ndarray, begin: np.uint64, end: np.uint64, h: float, use_
 
     The speculative target ``-s / h`` of a point still apart is a division, which the vector registers do
     for every lane and point whatever the lane's separation. Where the separations were measured by an
-    earlier pass (the relax pass's serve the next substep's solve), a block with no point apart (a pile at
+    earlier pass or the layout (the relax pass's serve the next substep's solve, the layout's the step's
+    first), a block with no point apart (a pile at
     rest: every point sunk in) is visited without it, the same numbers; measuring first, to know, costs
     more than the division in the passes that measure."""
     for blk in range(begin, end):
@@ -416,9 +425,25 @@ def soft_pass(bodies: np.ndarray, sides: np.ndarray, record: np.ndarray, waves: 
     every lane, then both frictions (each a loop over the wave's blocks and lanes, whose visits do not wait
     on each other), and the velocities scattered back. A manifold's visits keep their order and the blocks
     of a wave share no body, so this is the pass over the manifolds in table order to the bit. The
-    separations are measured again when the bodies ``moved`` since the last pass (the first pass of a step,
-    and every pass after positions were integrated); otherwise the last pass's serve: the same numbers,
-    found once."""
+    separations are measured again when the bodies ``moved`` since the last pass (every pass after
+    positions were integrated); otherwise the last pass's, or the layout's where the step begins, serve: the
+    same numbers, found once."""
+    if moved:
+        if use_bias:
+            sweep(bodies, sides, record, waves, ends, h, True, push_out, True)
+        else:
+            sweep(bodies, sides, record, waves, ends, h, False, push_out, True)
+    elif use_bias:
+        sweep(bodies, sides, record, waves, ends, h, True, push_out, False)
+    else:
+        sweep(bodies, sides, record, waves, ends, h, False, push_out, False)
+
+
+@inlined
+def sweep(bodies: np.ndarray, sides: np.ndarray, record: np.ndarray, waves: int, ends: np.ndarray, h: float,
+          use_bias: bool, push_out: float, moved: bool) -> None:
+    """``soft_pass``'s walk, inlined where each call's flags are constants, so the compiled loops test
+    neither flag: a relax pass's visits load no softness, and a pass that measures nothing no motion."""
     begin = np.uint64(0)
     for v in range(waves):
         end = ends[v]
