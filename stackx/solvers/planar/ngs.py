@@ -2,7 +2,8 @@
 every separation again, rotation included (Box2D 2.x's solver).
 
 One step of one world:
-1. the velocity half (``contacts.solve_velocities``): gravity; the points within ``speculative`` of touching,
+1. the velocity half (``passes.solve_laid``: ``contacts.solve_velocities``' numbers on the contacts laid out
+   in visiting order, as ``planar-warm-start``'s): gravity; the points within ``speculative`` of touching,
    or within what the fastest box can close in the step when that is more (``reach``);
    warm start by ``(A, B, feature)``; ``iterations`` passes with accumulated clamping, Coulomb friction and
    two-point manifolds' normals solved together (``block``);
@@ -30,7 +31,8 @@ from stackx.registry import solvers
 from stackx.solvers.contacts import speculative_field
 from stackx.solvers.planar.base import PlanarMemorySolver
 from stackx.solvers.planar.contacts import (anchor_locals, contact_workspace, find_contacts, integrate_positions,
-                                            observed_contacts, separation_push, solve_velocities)
+                                            observed_contacts, separation_push)
+from stackx.solvers.planar.passes import laid_workspace, solve_laid
 from stackx.solvers.planar.reach import contact_margin
 
 SOLVED = 3.0  # position passes stop once no point is deeper than this many slops (Box2D 2.x)
@@ -79,9 +81,13 @@ def planar_ngs_advance(x: np.ndarray, y: np.ndarray, angle: np.ndarray, vx: np.n
         ids, table = contact_workspace(keys.shape[1])
         margin = contact_margin(speculative[b], vxb, vyb, wb, im, hxb, hyb, g[b], dt[b])
         ids, table, count = find_contacts(xb, yb, ab, hxb, hyb, im, margin, ids, table)
+        first, order, group, tally, latest, links, rows, bodies = laid_workspace(ids.shape[0], x.shape[1])
         for _ in range(steps):
-            held[b] = solve_velocities(xb, yb, vxb, vyb, wb, im, ii, mub, g[b], dt[b], carry[b], iterations[b],
-                                       block[b], 1.0, ids, table, count, keys[b], carried[b], held[b])
+            if rows.shape[0] < ids.shape[0]:  # the table grew
+                first, order, group, tally, latest, links, rows, bodies = laid_workspace(ids.shape[0], x.shape[1])
+            held[b] = solve_laid(xb, yb, vxb, vyb, wb, im, ii, mub, g[b], dt[b], carry[b], iterations[b], block[b],
+                                 1.0, ids, table, count, keys[b], carried[b], held[b], first, order, group, tally,
+                                 latest, links, rows, bodies)
             anchor_locals(xb, yb, ab, ids, table, count)
             integrate_positions(xb, yb, ab, vxb, vyb, wb, dt[b])
             for _ in range(position_iterations[b]):
