@@ -148,14 +148,26 @@ def _contact_conditions(p, pn, pt):  # type: ignore[no-untyped-def]
     return max(plain_conditions(p, list(pn), list(pt), velocity).values())
 
 
-def test_a_shaking_pile_whose_paths_fold_lands_where_friction_is_raised_in_stages() -> None:
+def test_a_shaking_pile_whose_paths_fold_ends_its_path_where_friction_is_raised_in_stages() -> None:
     # a 20-row pyramid shaking under planar-xpbd at 16 substeps (924 points): the central path folds both from
     # its own start and from the warm start, and every later try stalled above the tolerance (44 s on the
     # cascade); without friction the path ends, and raised from there in stages it ends on this step too
+    # (which try then lands it depends on the last bits of the path's end: the cheap Newton tries from there,
+    # or the first try from the warm start, on different processors)
     p, pn, pt = _recorded_npz("xpbd_pyramid20_fold_step")
     assert paths_ended(p, pn, pt) == (0, 0, 1)
+    kn, kt = effective_masses(p)
+    s = reference.ModeSystem(p, kn, kt)
+    staged = None
+    with np.errstate(all="ignore"):
+        for share in reference.FRICTION_RAMP:
+            staged, _, ended = interior.central_path(s.values, s.columns, s.k, share * s.cone, s.v0, s.inv,
+                                                     s.fixed_u, s.target, staged)
+            assert ended == 1
+    m = p.points
+    assert residual(p, np.maximum(staged[:m], 0.0) * kn, staged[m:] * kt) < 1e-4
     sol = reference.solve(p, pn, pt)
-    assert sol.attempt == 0
+    assert sol.attempt <= 1
     assert residual(p, sol.pn, sol.pt) < 1e-10
     assert _contact_conditions(p, sol.pn, sol.pt) < 1e-9
     assert _contact_conditions(p, pn, pt) > 1e-3  # the warm start is far from it
