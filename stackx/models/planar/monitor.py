@@ -62,23 +62,27 @@ def observe_points(body_a: np.ndarray, body_b: np.ndarray, depth: np.ndarray, co
     ``count`` bodies and depths), with any margin: a point still apart (negative depth) changes no monitor,
     so a solver that finds its next step's points (within its speculative margin) where the step ended
     serves the monitors with the same list instead of colliding once more."""
+    deepest, farthest = peak[b], reach[b]  # in registers: a store to ``touched`` might otherwise be to them
     for k in range(count):
         d = depth[k]
         i, j = body_a[k], body_b[k]
         size = min(hx[j], hy[j])
         if i != GROUND:
             size = min(size, min(hx[i], hy[i]))
-        if d > peak[b]:  # peak and reach start at 0: a gap never raises them
-            peak[b] = d
-        if d / size > reach[b]:
-            reach[b] = d / size
+        if d > deepest:  # peak and reach start at 0: a gap never raises them
+            deepest = d
+        if d / size > farthest:
+            farthest = d / size
         if touching(d):
             touched[b, j] = True
             if i != GROUND:
                 touched[b, i] = True
+    peak[b], reach[b] = deepest, farthest
+    fastest = launch[b]
     for i in range(y.shape[0]):
         if touched[b, i] and inv_mass[i] != 0.0:
             rise = (y[i] - last_y[b, i]) / dt
-            if rise > launch[b]:
-                launch[b] = rise
+            if rise > fastest:
+                fastest = rise
         last_y[b, i] = y[i]
+    launch[b] = fastest

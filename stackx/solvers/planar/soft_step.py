@@ -182,11 +182,19 @@ def lane_workspace(room: int, worlds: int) -> tuple[np.ndarray, ...]:
 
 
 @leaf
-def load_bodies(vx: np.ndarray, vy: np.ndarray, w: np.ndarray, bodies: np.ndarray) -> None:
-    """The bodies' rows as a step begins: velocities, not moved yet."""
-    for i in range(vx.shape[0]):
-        bodies[i, V_X], bodies[i, V_Y], bodies[i, V_W] = vx[i], vy[i], w[i]
-        bodies[i, D_X], bodies[i, D_Y], bodies[i, COS], bodies[i, SIN] = 0.0, 0.0, 1.0, 0.0
+def load_bodies(x: np.ndarray, y: np.ndarray, angle: np.ndarray, vx: np.ndarray, vy: np.ndarray, w: np.ndarray,
+                lo: int, hi: int, start: np.ndarray, bodies: np.ndarray) -> None:
+    """The body rows of batch rows ``lo`` to ``hi`` as a step begins (row ``r``'s boxes from ``r`` times the
+    boxes on): where each box starts (``start``), its velocities, not moved yet. The rows are read by index,
+    not sliced: a slice in a compiled loop counts a reference to its array on the way in and out."""
+    n = x.shape[1]
+    for r in range(hi - lo):
+        b = lo + r
+        for i in range(n):
+            k = r * n + i
+            start[k, 0], start[k, 1], start[k, 2] = x[b, i], y[b, i], angle[b, i]
+            bodies[k, V_X], bodies[k, V_Y], bodies[k, V_W] = vx[b, i], vy[b, i], w[b, i]
+            bodies[k, D_X], bodies[k, D_Y], bodies[k, COS], bodies[k, SIN] = 0.0, 0.0, 1.0, 0.0
 
 
 @leaf
@@ -200,33 +208,45 @@ def still_ground(bodies: np.ndarray) -> None:
 
 
 @leaf
-def store_velocities(bodies: np.ndarray, vx: np.ndarray, vy: np.ndarray, w: np.ndarray) -> None:
-    """The velocities the step ends with, back to the state."""
-    for i in range(vx.shape[0]):
-        vx[i], vy[i], w[i] = bodies[i, V_X], bodies[i, V_Y], bodies[i, V_W]
+def store_velocities(bodies: np.ndarray, lo: int, hi: int, vx: np.ndarray, vy: np.ndarray, w: np.ndarray) -> None:
+    """The velocities the step of batch rows ``lo`` to ``hi`` ends with, back to the state."""
+    n = vx.shape[1]
+    for r in range(hi - lo):
+        b = lo + r
+        for i in range(n):
+            k = r * n + i
+            vx[b, i], vy[b, i], w[b, i] = bodies[k, V_X], bodies[k, V_Y], bodies[k, V_W]
 
 
 @leaf
-def body_gravity(bodies: np.ndarray, inv_mass: np.ndarray, g: float, h: float) -> None:
-    """``contacts.gravity`` on the bodies' rows: ``vy += g h`` for every movable body."""
-    for i in range(inv_mass.shape[0]):
-        if inv_mass[i] > 0.0:
-            bodies[i, V_Y] += g * h
+def body_gravity(bodies: np.ndarray, inv_mass: np.ndarray, g: np.ndarray, lo: int, hi: int, h: float) -> None:
+    """``contacts.gravity`` on the body rows of batch rows ``lo`` to ``hi``: ``vy += g h`` for every movable
+    body."""
+    n = inv_mass.shape[1]
+    for r in range(hi - lo):
+        b = lo + r
+        for i in range(n):
+            if inv_mass[b, i] > 0.0:
+                bodies[r * n + i, V_Y] += g[b] * h
 
 
 @leaf
-def integrate_moved(x: np.ndarray, y: np.ndarray, angle: np.ndarray, bodies: np.ndarray, start: np.ndarray,
-                    h: float) -> None:
-    """``contacts.integrate_positions`` then ``substep.moved_body`` for every body, in one walk: positions
-    and angles move with the velocities over ``h``, and each body's row learns how far it has come since the
-    step began (``start``)."""
-    for i in range(x.shape[0]):
-        x[i] += bodies[i, V_X] * h
-        y[i] += bodies[i, V_Y] * h
-        angle[i] += bodies[i, V_W] * h
-        bodies[i, D_X], bodies[i, D_Y] = x[i] - start[i, 0], y[i] - start[i, 1]
-        turn = angle[i] - start[i, 2]
-        bodies[i, COS], bodies[i, SIN] = np.cos(turn), np.sin(turn)
+def integrate_moved(x: np.ndarray, y: np.ndarray, angle: np.ndarray, lo: int, hi: int, bodies: np.ndarray,
+                    start: np.ndarray, h: float) -> None:
+    """``contacts.integrate_positions`` then ``substep.moved_body`` for every body of batch rows ``lo`` to
+    ``hi``, in one walk: positions and angles move with the velocities over ``h``, and each body's row learns
+    how far it has come since the step began (``start``)."""
+    n = x.shape[1]
+    for r in range(hi - lo):
+        b = lo + r
+        for i in range(n):
+            k = r * n + i
+            x[b, i] += bodies[k, V_X] * h
+            y[b, i] += bodies[k, V_Y] * h
+            angle[b, i] += bodies[k, V_W] * h
+            bodies[k, D_X], bodies[k, D_Y] = x[b, i] - start[k, 0], y[b, i] - start[k, 1]
+            turn = angle[b, i] - start[k, 2]
+            bodies[k, COS], bodies[k, SIN] = np.cos(turn), np.sin(turn)
 
 
 @kernel
@@ -377,32 +397,26 @@ def step_rows(lo: int, hi: int, x: np.ndarray, y: np.ndarray, angle: np.ndarray,
         for v in range(most):
             empty_lanes(record, sides, used[v], ends[v] * LANES, ground)
         effective_masses(record, np.uint64(blocks))
-        for r in range(worlds):
-            b = lo + r
-            for k in range(n):
-                start[r * n + k, 0], start[r * n + k, 1], start[r * n + k, 2] = x[b, k], y[b, k], angle[b, k]
-            load_bodies(vx[b], vy[b], w[b], bodies[r * n:])
-            if watched:
-                clear_applied(applied[b], count[r])
+        load_bodies(x, y, angle, vx, vy, w, lo, hi, start, bodies)
+        if watched:
+            for r in range(worlds):
+                clear_applied(applied[lo + r], count[r])
         still_ground(bodies)
         for i in range(substeps[lo]):
-            for r in range(worlds):
-                body_gravity(bodies[r * n:], inv_mass[lo + r], g[lo + r], h)
+            body_gravity(bodies, inv_mass, g, lo, hi, h)
             warm_start(bodies, sides, record, most, ends)
             # the layout measured the separations where the step begins, and the relax pass where the boxes
             # still are
             soft_pass(bodies, sides, record, most, ends, h, True, push_out[lo], i > 0 and not relax[lo])
-            for r in range(worlds):
-                b = lo + r
-                integrate_moved(x[b], y[b], angle[b], bodies[r * n:], start[r * n:], h)
+            integrate_moved(x, y, angle, lo, hi, bodies, start, h)
             if relax[lo]:
                 soft_pass(bodies, sides, record, most, ends, h, False, push_out[lo], True)
             if watched:
                 for r in range(worlds):
                     add_applied(slots[r], count[r], record, applied[lo + r])
+        store_velocities(bodies, lo, hi, vx, vy, w)
         for r in range(worlds):
             b = lo + r
-            store_velocities(bodies[r * n:], vx[b], vy[b], w[b])
             held[b] = remember_laid(ids_of[r], count[r], slots[r], record, keys[b], carried[b])
             # where the step ended: the contacts of its monitors and of the next step (``observed_contacts``)
             ids_of[r], table_of[r], count[r], near_of[r] = find_contacts_near(
