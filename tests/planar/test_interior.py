@@ -27,16 +27,22 @@ def path_end(p, start=None):  # type: ignore[no-untyped-def]
     return velocities_after(p, np.maximum(q[:m], 0.0) * kn, q[m:] * kt), iterations, ended
 
 
+def path_arrays(p):  # type: ignore[no-untyped-def]
+    """``central_path``'s arrays for problem ``p`` (rows, columns, scales, cone, free velocities, inverse
+    masses, fixed velocities, targets), as the reference passes them."""
+    s = reference.ModeSystem(p, *effective_masses(p))
+    return [s.values, s.columns, s.k, s.cone, s.v0, s.inv, s.fixed_u, s.target]
+
+
 def paths_ended(p, pn, pt):  # type: ignore[no-untyped-def]
     """Whether the central path of problem ``p`` ends (1) or jams (0): from its own start, from the warm start
     ``pn``, ``pt``, and without friction from its own start."""
     kn, kt = effective_masses(p)
-    s = reference.ModeSystem(p, kn, kt)
-    arrays = [s.values, s.columns, s.k, s.cone, s.v0, s.inv, s.fixed_u, s.target]
+    arrays = path_arrays(p)
     warm = np.concatenate([pn / kn, pt / kt])
     with np.errstate(all="ignore"):
         return (interior.central_path(*arrays)[2], interior.central_path(*arrays, warm)[2],
-                interior.central_path(*arrays[:3], 0.0 * s.cone, *arrays[4:])[2])
+                interior.central_path(*arrays[:3], 0.0 * arrays[3], *arrays[4:])[2])
 
 
 @pytest.mark.parametrize("on", [False, True])
@@ -150,19 +156,17 @@ def _contact_conditions(p, pn, pt):  # type: ignore[no-untyped-def]
 
 def test_a_shaking_pile_whose_paths_fold_ends_its_path_where_friction_is_raised_in_stages() -> None:
     # a 20-row pyramid shaking under planar-xpbd at 16 substeps (924 points): the central path folds both from
-    # its own start and from the warm start, and every later try stalled above the tolerance (44 s on the
-    # cascade); without friction the path ends, and raised from there in stages it ends on this step too
-    # (which try then lands it depends on the last bits of the path's end: the cheap Newton tries from there,
-    # or the first try from the warm start, on different processors)
+    # its own start and from the warm start; without friction the path ends, and raised from there in stages it
+    # ends on this step too (which try then lands it depends on the last bits of the path's end: the cheap
+    # Newton tries from there, or the first try from the warm start, on different processors)
     p, pn, pt = _recorded_npz("xpbd_pyramid20_fold_step")
     assert paths_ended(p, pn, pt) == (0, 0, 1)
     kn, kt = effective_masses(p)
-    s = reference.ModeSystem(p, kn, kt)
+    values, columns, k, cone, *rest = path_arrays(p)
     staged = None
     with np.errstate(all="ignore"):
         for share in reference.FRICTION_RAMP:
-            staged, _, ended = interior.central_path(s.values, s.columns, s.k, share * s.cone, s.v0, s.inv,
-                                                     s.fixed_u, s.target, staged)
+            staged, _, ended = interior.central_path(values, columns, k, share * cone, *rest, staged)
             assert ended == 1
     m = p.points
     assert residual(p, np.maximum(staged[:m], 0.0) * kn, staged[m:] * kt) < 1e-4
