@@ -22,7 +22,8 @@ turns (``benchmarks.timing.interleaved``) and medians are compared. Every subjec
 on one thread, so it is timed in the process's CPU time (``time.process_time``), which load from other
 processes on the machine does not inflate; the batched figure uses threads and is wall time. Printed: the µs
 per step, the ratios of the targets, the batched figure (``--batch`` rows of pyramid-20 stepped by one stackx
-call, on every thread numba has, against Box2D stepping as many worlds one call each) and, per subject, the
+call of a quarter of ``--steps`` steps on a fresh solver, on every thread numba has, against Box2D stepping as
+many worlds one call each) and, per subject, the
 exponent of a least-squares fit of cost against contact points over the pyramids of 10, 20, 40 and 60 rows
 (1 is linear).
 ``--piles`` and ``--subjects`` restrict a run to some piles and subjects (the fit needs its four pyramids), and
@@ -367,17 +368,20 @@ def run(json_path: Path, steps: int, repeats: int, batch: int, exact_boxes: int,
         console.print("exponent of µs/step against contact points over pyramids " + "/".join(map(str, SCALING))
                       + f" ({'/'.join(map(str, sizes))} points): "
                       + ", ".join(f"{n} {e:.2f}" for n, e in scaling.items()))
-    batched = time_batch(pyramid(20), batch, max(1, steps // 4), repeats) if batch else {}
+    per_call = max(1, steps // 4)
+    batched = time_batch(pyramid(20), batch, per_call, repeats) if batch else {}
     box2d = batched.get(BOX2D, math.nan)
     if batched:
-        console.print(f"pyramid-20 x {batch} worlds, µs per world-step (stackx: one call per step for the batch, "
+        call = f"one call of {per_call} step{'s' if per_call > 1 else ''} for the batch, a fresh solver each sample"
+        console.print(f"pyramid-20 x {batch} worlds, µs per world-step (stackx: {call}, "
                       f"{numba.config.NUMBA_NUM_THREADS} threads; Box2D: one call per world and step, one thread): "
                       + ", ".join(f"{n} {us:.1f} ({against(us, box2d)})" for n, us in batched.items() if n != BOX2D)
                       + f", {BOX2D} {box2d:.1f}")
     doc = {"steps": steps, "repeats": repeats, "boxes": {p: s.bodies for p, s in piles.items()},
            "contact_points": points, "us_per_step": {p: t.us for p, t in timed.items()},
            "drift_m_turn_rad": {p: t.motion for p, t in timed.items()}, "scaling_exponent": scaling,
-           "batched": {"rows": batch, "threads": numba.config.NUMBA_NUM_THREADS, "us_per_world_step": batched}}
+           "batched": {"rows": batch, "steps_per_call": per_call if batch else 0,
+                       "threads": numba.config.NUMBA_NUM_THREADS, "us_per_world_step": batched}}
     json_path.parent.mkdir(parents=True, exist_ok=True)
     json_path.write_text(json.dumps(doc, indent=2) + "\n")
     console.print(f"figures written to {json_path}")
