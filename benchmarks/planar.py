@@ -23,9 +23,8 @@ on one thread, so it is timed in the process's CPU time (``time.process_time``),
 processes on the machine does not inflate; the batched figure uses threads and is wall time. Printed: the µs
 per step, the ratios of the targets, the batched figure (``--batch`` rows of pyramid-20 stepped by one stackx
 call of a quarter of ``--steps`` steps on a fresh solver, on every thread numba has, against Box2D stepping as
-many worlds one call each) and, per subject, the
-exponent of a least-squares fit of cost against contact points over the pyramids of 10, 20, 40 and 60 rows
-(1 is linear).
+many worlds one call each) and, per subject, the exponent of a least-squares fit of cost against contact points
+over the pyramids of 10, 20, 40 and 60 rows (1 is linear).
 ``--piles`` and ``--subjects`` restrict a run to some piles and subjects (the fit needs its four pyramids), and
 ``--batch 0`` leaves the batched figure out.
 The drift of each pile (largest sideways motion and turn of a box over the timed steps) goes to the JSON
