@@ -64,3 +64,14 @@ def test_a_shaking_pyramid_step_has_several_exact_answers_with_different_velocit
     # 3.6e-2, 2.5e-2 and 1.6e-2 m/s: not rounding apart, and not one answer's load shared differently among
     # redundant points (which leaves the velocities as they are): different answers
     assert min(spread) > 1e-2
+
+
+def test_the_answers_benchmark_finds_one_answer_where_a_step_has_one() -> None:
+    """``benchmarks.planar_answers`` solves each step again from zero impulses: a box sliding down a ramp (one
+    face on one plane, friction below what holds it) has one answer a step, so every step compares and none
+    differs."""
+    from benchmarks.planar_answers import compare
+
+    found = compare(str(Path(__file__).parents[2] / "configs" / "planar" / "ramp-slide.yaml"), 20, "planar-pgs", None)
+    assert found["compared"] == 20 and found["missed"] == 0 and found["unsolved"] == 0
+    assert found["apart"] == [0, 0] and found["largest"] < 1e-9
