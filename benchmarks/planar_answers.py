@@ -40,7 +40,7 @@ def compare(path: str, steps: int, solver: str, knob: int | None) -> dict[str, A
     plain = step_problem.solve
     apart: list[float] = []
     missed = 0
-    radius: list[np.ndarray] = []  # the boxes' half diagonals (the scene's initial state)
+    radius = half_diagonal(spec.runs[0].scene.build())[0]  # each box's turn counted at its half diagonal
 
     def twice(problem: ContactProblem, pn: np.ndarray, pt: np.ndarray, **kwargs: Any) -> reference.Solution:
         nonlocal missed
@@ -51,14 +51,12 @@ def compare(path: str, steps: int, solver: str, knob: int | None) -> dict[str, A
             missed += 1
             return found
         d = again.velocity - found.velocity
-        if d.shape[0] != radius[0].shape[0]:  # a scene event took a box out: the boxes are renumbered
+        if d.shape[0] != radius.shape[0]:  # a scene event took a box out: the boxes are renumbered
             return found
         moving = problem.inv_mass > 0.0
-        apart.append(float(box_speeds(d[:, 0], d[:, 1], d[:, 2], radius[0])[moving].max(initial=0.0)))
+        apart.append(float(box_speeds(d[:, 0], d[:, 1], d[:, 2], radius)[moving].max(initial=0.0)))
         return found
 
-    state = spec.runs[0].scene.build()
-    radius.append(half_diagonal(state)[0])
     step_problem.solve = twice  # type: ignore[assignment]
     try:
         log = StepLog(Criteria())
