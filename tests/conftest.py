@@ -5,7 +5,7 @@ from __future__ import annotations
 import os
 import subprocess
 import sys
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from pathlib import Path
 
 import pytest
@@ -29,3 +29,23 @@ def run_cli(*args: object, cwd: Path = REPO, env: dict[str, str] | None = None,
 def cli() -> Cli:
     """``run_cli`` as a fixture."""
     return run_cli
+
+
+@pytest.fixture(autouse=True, scope="session")
+def _one_click_command() -> Iterator[None]:
+    """typer's ``CliRunner.invoke`` builds the click command afresh from every command function's signature on
+    each call, which was a third of the time of the tests that invoke ``stackx`` in-process a thousand times;
+    the command is the same every time, so it is built once per app (as the ``stackx`` program does)."""
+    import functools
+
+    import typer.testing
+
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(typer.testing, "_get_command", functools.cache(typer.testing._get_command))
+        yield
+
+
+def pytest_xdist_auto_num_workers(config: pytest.Config) -> int:
+    """``-n auto``: a process per core, at most four: each loads numba and compiles or loads the kernels its
+    tests use (about a gigabyte a process), so more processes than that mostly repeat the same work."""
+    return max(1, min(os.cpu_count() or 1, 4))

@@ -136,7 +136,10 @@ def _recomputed(model: str, result: object) -> float:
 
 @pytest.mark.parametrize("model,path", [(m, p) for m, paths in DROPS.items() for p in paths],
                          ids=lambda v: getattr(v, "stem", v))
-def test_every_solver_launches_as_its_positions_say(model: str, path: object) -> None:
+def test_every_solver_launches_as_its_positions_say(model: str, path: object, monkeypatch: pytest.MonkeyPatch) -> None:
+    # compiled however small the batch: the plain path would step the 64-iteration rows in Python for most of a
+    # minute, to the same numbers (tests/speed)
+    monkeypatch.setenv("STACKX_JIT", "1")
     case, runs = _runs(path, model)
     limit = case.section.criteria.launch
     seen = set()

@@ -340,7 +340,10 @@ def step_rows(lo: int, hi: int, x: np.ndarray, y: np.ndarray, angle: np.ndarray,
     near_of = [kept_near[lo + r] for r in range(worlds)]  # the broad phase's candidates, kept while the
     fat_of = [kept_fat[lo + r] for r in range(worlds)]  # boxes stay near (``find_contacts_near``)
     count = np.empty(worlds, np.int64)
-    room = 0
+    # the counts the workspaces and passes are sized by start as int64, not as the literal 0: numba types a loop in
+    # rounds and asks for each kernel called with such a count at every round, so a literal 0 built every pass and
+    # workspace kernel a second time, for a value no call passes (two fifths of the soft step's first compile)
+    room = np.int64(0)
     for r in range(worlds):
         room = max(room, ids_of[r].shape[0])
     kept_orders = True  # whether the orders are the ones kept for the next call
@@ -358,7 +361,7 @@ def step_rows(lo: int, hi: int, x: np.ndarray, y: np.ndarray, angle: np.ndarray,
     watched = applied.shape[1] > 0  # the step's impulses are summed only for a caller that reads them
     laid = False  # whether the blocks hold the last step's layout
     for _ in range(steps):
-        most = 0
+        most = np.int64(0)
         kept_pairs = True  # whether every row's manifolds are the last step's, in the same order
         for r in range(worlds):
             room = max(room, ids_of[r].shape[0])

@@ -439,11 +439,15 @@ def soft_pass(bodies: np.ndarray, sides: np.ndarray, record: np.ndarray, waves: 
         sweep(bodies, sides, record, waves, ends, h, False, push_out, False)
 
 
-@inlined
+@leaf
 def sweep(bodies: np.ndarray, sides: np.ndarray, record: np.ndarray, waves: int, ends: np.ndarray, h: float,
           use_bias: bool, push_out: float, moved: bool) -> None:
-    """``soft_pass``'s walk, inlined where each call's flags are constants, so the compiled loops test
-    neither flag: a relax pass's visits load no softness, and a pass that measures nothing no motion."""
+    """``soft_pass``'s walk, built once for each setting of its flags (``soft_pass`` passes them as constants),
+    so the compiled loops test neither flag: a relax pass's visits load no softness, and a pass that measures
+    nothing no motion. A kernel of its own, called once a pass, not copied into ``soft_pass``: numba copies an
+    inlined function's code afresh, with all it inlines in turn, at every call site, and the four copies made
+    ``soft_pass`` the longest compile of any solver (a first soft-step run from an empty cache spent about 250 s
+    of CPU compiling against about 150 s with the walk its own kernel, the same numbers and the same speed)."""
     begin = np.uint64(0)
     for v in range(waves):
         end = ends[v]
