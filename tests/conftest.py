@@ -31,6 +31,27 @@ def cli() -> Cli:
     return run_cli
 
 
+Shown = Callable[[str], None]
+
+
+@pytest.fixture
+def shown(request: pytest.FixtureRequest) -> Shown:
+    """``shown(text)``: a line for the log, printed after the tests whether this one passes or not (a trial's
+    tally, a screenshot's path). The tests run in several processes, where a test's own output stays."""
+    return lambda text: request.node.user_properties.append(("shown", text))
+
+
+def pytest_terminal_summary(terminalreporter: pytest.TerminalReporter) -> None:
+    """The lines the tests asked to show (``shown``), in the order their tests ended."""
+    lines = [value for reports in terminalreporter.stats.values() for report in reports
+             if getattr(report, "when", None) == "call"
+             for name, value in getattr(report, "user_properties", ()) if name == "shown"]
+    if lines:
+        terminalreporter.section("shown by the tests")
+        for line in lines:
+            terminalreporter.write_line(line)
+
+
 @pytest.fixture(autouse=True, scope="session")
 def _one_click_command() -> Iterator[None]:
     """typer's ``CliRunner.invoke`` builds the click command afresh from every command function's signature on

@@ -11,6 +11,7 @@ import pytest
 from typer.testing import CliRunner
 
 from stackx.cli import app
+from tests.conftest import Shown
 from tests.planar.test_draw import PLANAR
 from tests.robust.test_player_browser import _shown, browsing, keep, serving
 
@@ -20,7 +21,7 @@ def _label(k: int, steps: list[int]) -> str:
 
 
 def test_planar_players_step_to_the_end(tmp_path: Path, monkeypatch: pytest.MonkeyPatch,
-                                        capsys: pytest.CaptureFixture[str]) -> None:
+                                        shown: Shown) -> None:
     config = tmp_path / "ramp.yaml"
     config.write_text(PLANAR)
     out = tmp_path / "out"
@@ -39,7 +40,7 @@ def test_planar_players_step_to_the_end(tmp_path: Path, monkeypatch: pytest.Monk
             page.keyboard.press("End")  # type: ignore[attr-defined]
             sizes = page.eval_on_selector_all("img.frame", "els => els.map(e => [e.complete, e.naturalWidth])")  # type: ignore[attr-defined]
             note = page.locator("p.note").first.text_content()  # type: ignore[attr-defined]
-            keep(page, "planar-player.png" if name == "index.html" else "planar-compare.png", capsys)
+            keep(page, "planar-player.png" if name == "index.html" else "planar-compare.png", shown)
             seen[name] = (walk, sizes, note, count)
     player, sizes, note, _ = seen["index.html"]
     steps = [0, 10, 20, 30, 40]
@@ -64,7 +65,7 @@ bench: {knob: [2, 8], timing: {steps: 5, repeats: 1}}
 """
 
 
-def test_the_report_draws_a_planar_case(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+def test_the_report_draws_a_planar_case(tmp_path: Path, shown: Shown) -> None:
     """A planar case's section: its plot against time with the drift panels and its start and final states,
     every picture loaded."""
     import subprocess
@@ -85,7 +86,7 @@ def test_the_report_draws_a_planar_case(tmp_path: Path, capsys: pytest.CaptureFi
         page.wait_for_function("document.getElementById('stack-3').open")  # type: ignore[attr-defined]
         images = page.eval_on_selector_all("#stack-3 img", "els => els.map(e => [e.alt, e.complete, e.naturalWidth, e.naturalHeight])")  # type: ignore[attr-defined]
         captions = page.eval_on_selector_all("figure.state figcaption", "els => els.map(e => e.textContent)")  # type: ignore[attr-defined]
-        keep(page, "planar-report-case.png", capsys)
+        keep(page, "planar-report-case.png", shown)
     plot = next(i for i in images if i[0].startswith("top box height"))
     assert "drift and turn" in plot[0] and plot[1:] == [True, 1150, 640]
     states = [i[1:] for i in images if i[0] in captions]

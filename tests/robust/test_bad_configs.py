@@ -23,14 +23,13 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-import pytest
 import yaml
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from typer.testing import CliRunner
 
 from stackx.cli import app
-from tests.conftest import CONFIGS, REPO
+from tests.conftest import CONFIGS, REPO, Shown
 
 from .yamlgen import Path as KeyPath
 from .yamlgen import dotted, emit
@@ -329,7 +328,7 @@ def check_error(case: Case, config: Path, code: int, stderr: str, out: Path) -> 
     assert not out.exists(), f"{case.kind}: wrote {sorted(out.rglob('*'))}"
 
 
-def test_a_thousand_broken_configs_fail_cleanly(capsys: pytest.CaptureFixture[str]) -> None:
+def test_a_thousand_broken_configs_fail_cleanly(shown: Shown) -> None:
     runner = CliRunner()
     kinds: Counter[str] = Counter()
     with tempfile.TemporaryDirectory() as tmp:
@@ -347,9 +346,8 @@ def test_a_thousand_broken_configs_fail_cleanly(capsys: pytest.CaptureFixture[st
 
         attempt()
     total = sum(kinds.values())
-    with capsys.disabled():  # shown in the CI log, passing or not
-        print(f"\n{total} broken configs tried, none gave a traceback or wrote a file: "
-              + ", ".join(f"{k} {n}" for k, n in sorted(kinds.items())))
+    shown(f"{total} broken configs tried, none gave a traceback or wrote a file: "  # in the log, passing or not
+          + ", ".join(f"{k} {n}" for k, n in sorted(kinds.items())))
     assert total >= 1000
     assert len(kinds) >= 14, kinds
 

@@ -7,14 +7,14 @@ from __future__ import annotations
 from collections import Counter
 from pathlib import Path
 
-import pytest
+from tests.conftest import Shown
 
 from .fuzzgen import attempt, make
 
 CASES = 300
 
 
-def test_hostile_configs_keep_the_contract(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+def test_hostile_configs_keep_the_contract(tmp_path: Path, shown: Shown) -> None:
     failures, kinds, codes = [], Counter(), Counter()
     for seed in range(CASES):
         case = make(seed)
@@ -25,8 +25,7 @@ def test_hostile_configs_keep_the_contract(tmp_path: Path, capsys: pytest.Captur
         kinds[case.how.split(" ")[0]] += 1
         if problems:
             failures.append(f"seed {seed} ({case.base}: {case.how}): {'; '.join(problems)}")
-    with capsys.disabled():
-        print(f"\n{CASES} hostile configs: {len(failures)} broke the contract; exit codes {dict(sorted(codes.items()))}")
+    shown(f"{CASES} hostile configs: {len(failures)} broke the contract; exit codes {dict(sorted(codes.items()))}")
     assert not failures, "\n".join(failures[:20])
     assert len(kinds) >= 8, kinds  # the mutations are varied
     assert codes[0] >= CASES // 20 and codes[2] >= CASES // 2, codes  # most are refused, some still run

@@ -18,7 +18,7 @@ import pytest
 
 from benchmarks.robust_folder import (References, after_kill, command, environ, kill_points, kill_trial, references,
                                       snapshot)
-from tests.conftest import REPO
+from tests.conftest import REPO, Shown
 
 SEED = 20261125
 
@@ -30,7 +30,7 @@ def refs(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, References]:
 
 
 def test_sigkill_leaves_the_old_run_or_the_new_one(refs: tuple[Path, References],
-                                                   capsys: pytest.CaptureFixture[str]) -> None:
+                                                   shown: Shown) -> None:
     root, found = refs
     assert any(found.old[n] != found.new.get(n) for n in found.old if n != "timing.json")
     points = kill_points(found, 6, SEED)
@@ -41,8 +41,7 @@ def test_sigkill_leaves_the_old_run_or_the_new_one(refs: tuple[Path, References]
         where, verdict, code = kill_trial(root / f"trial{i}", found, point)
         seen.append((where, verdict, code))
         assert verdict in ("old", "new"), seen[-1]
-    with capsys.disabled():
-        print("\nkill trials:\n  " + "\n  ".join(f"{w}: {v} (exit {c})" for w, v, c in seen))
+    shown("kill trials: " + "; ".join(f"{w}: {v} (exit {c})" for w, v, c in seen))
     if shutil.which("strace"):  # killed on entering the switch: old; on removing the old folder after it: new
         assert seen[:2] == [("renameat2 #1", "old", -signal.SIGKILL), ("unlinkat #1", "new", -signal.SIGKILL)]
     assert after_kill(root / "trial0", found) == "new"

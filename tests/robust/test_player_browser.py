@@ -27,7 +27,7 @@ import pytest
 from typer.testing import CliRunner
 
 from stackx.cli import app
-from tests.conftest import CONFIGS, REPO
+from tests.conftest import CONFIGS, REPO, Shown
 from tests.lab.reference import read_png
 
 CHROMIUM = Path("/usr/bin/chromium")
@@ -111,12 +111,11 @@ def browsing(profile: Path) -> Iterator[tuple[object, list[str]]]:
             context.close()
 
 
-def keep(page: object, name: str, capsys: pytest.CaptureFixture[str], full: bool = False) -> None:
+def keep(page: object, name: str, shown: Shown, full: bool = False) -> None:
     """Save a screenshot of the page in test-artifacts/ and say where."""
     ARTIFACTS.mkdir(exist_ok=True)
     page.screenshot(path=str(ARTIFACTS / name), full_page=full)  # type: ignore[attr-defined]
-    with capsys.disabled():
-        print(f"\nscreenshot: {ARTIFACTS / name}")
+    shown(f"screenshot: {ARTIFACTS / name}")
 
 
 def _shown_frame(screenshot: bytes, out: Path) -> str | None:
@@ -138,7 +137,7 @@ def _shown_frame(screenshot: bytes, out: Path) -> str | None:
 
 
 def test_player_plays_every_frame_in_order(served, tmp_path: Path,  # type: ignore[no-untyped-def]
-                                           capsys: pytest.CaptureFixture[str]) -> None:
+                                           shown: Shown) -> None:
     out, url = served
     with browsing(tmp_path / "profile") as (page, problems):
         page.add_init_script(RECORDER)  # type: ignore[attr-defined]
@@ -147,13 +146,13 @@ def test_player_plays_every_frame_in_order(served, tmp_path: Path,  # type: igno
                                timeout=30_000)  # type: ignore[attr-defined]
         loads = page.evaluate("window.__loads")  # type: ignore[attr-defined]
         sequence = page.evaluate("window.__shown")  # type: ignore[attr-defined]
-        shown = _shown_frame(page.locator("#frame").screenshot(), out)  # type: ignore[attr-defined]
-        keep(page, "player.png", capsys)
+        on_screen = _shown_frame(page.locator("#frame").screenshot(), out)  # type: ignore[attr-defined]
+        keep(page, "player.png", shown)
     assert sequence[:12] == FRAMES[1:] + FRAMES[:1]  # the first frame is the markup's, not set by the script
     assert sorted({entry["src"] for entry in loads}) == FRAMES
     assert all(not entry.get("error") and (entry["w"], entry["h"]) == (256, 256) for entry in loads), loads
     assert not problems, problems
-    assert shown in FRAMES, "the <img> does not show any frame pixel for pixel"
+    assert on_screen in FRAMES, "the <img> does not show any frame pixel for pixel"
 
 
 SIDE_BY_SIDE = (CONFIGS / "06-stack.yaml").read_text().split("outputs:")[0] + """
@@ -199,7 +198,7 @@ def players(tmp_path: Path):  # type: ignore[no-untyped-def]
 
 
 def test_side_by_side_player_steps_every_panel_together(players: str, tmp_path: Path,
-                                                        capsys: pytest.CaptureFixture[str]) -> None:
+                                                        shown: Shown) -> None:
     with browsing(tmp_path / "profile") as (page, problems):
         page.goto(players + "compare.html", wait_until="load")  # type: ignore[attr-defined]
         page.wait_for_function("document.querySelectorAll('img.frame').length === 2")  # type: ignore[attr-defined]
@@ -222,7 +221,7 @@ def test_side_by_side_player_steps_every_panel_together(players: str, tmp_path: 
         page.keyboard.press(" ")  # type: ignore[attr-defined]
         page.keyboard.press("End")  # type: ignore[attr-defined]
         sizes = page.eval_on_selector_all("img.frame", "els => els.map(e => [e.complete, e.naturalWidth])")  # type: ignore[attr-defined]
-        keep(page, "compare.png", capsys)
+        keep(page, "compare.png", shown)
     for key, want, (label, srcs) in steps:
         assert label == _label(want), (key, label)
         assert srcs == [f"compare/lab-{want:03d}.png", f"compare/exact-{want:03d}.png"], (key, srcs)
@@ -231,13 +230,13 @@ def test_side_by_side_player_steps_every_panel_together(players: str, tmp_path: 
     assert not problems, problems
 
 
-def test_settling_player_reaches_the_end(players: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+def test_settling_player_reaches_the_end(players: str, tmp_path: Path, shown: Shown) -> None:
     with browsing(tmp_path / "profile") as (page, problems):
         page.goto(players + "settle.html", wait_until="load")  # type: ignore[attr-defined]
         page.keyboard.press("End")  # type: ignore[attr-defined]
         label, srcs = _shown(page)
         note = page.locator("p.note").text_content()  # type: ignore[attr-defined]
-        keep(page, "settling.png", capsys)
+        keep(page, "settling.png", shown)
     assert label == _label(60) and srcs == ["settle/f60.png"]
     assert note.startswith("top box 4.3")  # the lab's top box settles near 4.37 m
     assert not problems, problems
@@ -253,7 +252,7 @@ bench: {knob: [2, 16], timing: {steps: 10, repeats: 1}}
 
 
 def test_report_opens_on_its_summary_and_opens_a_case_from_it(tmp_path: Path,
-                                                              capsys: pytest.CaptureFixture[str]) -> None:
+                                                              shown: Shown) -> None:
     _browser()
     (tmp_path / "cases").mkdir()
     (tmp_path / "cases" / "tall-6.yaml").write_text(BENCH_CASE)
@@ -266,11 +265,11 @@ def test_report_opens_on_its_summary_and_opens_a_case_from_it(tmp_path: Path,
         first = page.locator("h2").first.text_content()  # type: ignore[attr-defined]
         table = page.locator("table.summary").bounding_box()  # type: ignore[attr-defined]
         closed = page.eval_on_selector("details.case", "d => d.open")  # type: ignore[attr-defined]
-        keep(page, "report.png", capsys)
+        keep(page, "report.png", shown)
         page.click("table.summary a[href='#tall-6']")  # type: ignore[attr-defined]
         page.wait_for_function("document.getElementById('tall-6').open")  # type: ignore[attr-defined]
         images = page.eval_on_selector_all("img", "els => els.map(e => [e.complete, e.naturalWidth])")  # type: ignore[attr-defined]
-        keep(page, "report-case.png", capsys)
+        keep(page, "report-case.png", shown)
     assert first == "Summary"
     assert table is not None and table["y"] + table["height"] <= 900, "the summary fits the first screen"
     assert closed is False
