@@ -12,6 +12,7 @@ from __future__ import annotations
 import random
 import shutil
 import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -38,9 +39,15 @@ def earlier(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path, int, 
     return root / "old", root / "new", first, len(calls)
 
 
+# Ctrl-C as a terminal delivers it: a suite started in the background (``pytest &`` from a script) ignores
+# SIGINT, its children inherit that, and ``stackx`` rightly keeps ignoring it (``interrupt.install``)
+AT_DEFAULT = [sys.executable, "-c", "import os, signal, sys; signal.signal(signal.SIGINT, signal.SIG_DFL); "
+              "signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT}); os.execvp(sys.argv[1], sys.argv[1:])"]
+
+
 def _interrupted(old: Path, folder: Path, call: str, k: int) -> subprocess.CompletedProcess[str]:
     shutil.copytree(old, folder)
-    return subprocess.run(["strace", "-qq", "-o", "/dev/null", "-e", f"trace={call}",
+    return subprocess.run([*AT_DEFAULT, "strace", "-qq", "-o", "/dev/null", "-e", f"trace={call}",
                            "-e", f"inject={call}:signal=INT:when={k}", *command(folder, configs=CONFIG)],
                           cwd=REPO, env=environ(), timeout=300, capture_output=True, text=True)
 
