@@ -30,9 +30,10 @@ loop's visits read a lane's velocities once, carry them through both points' vis
 without it holds zeros that nothing reads back), and the tests that choose a lane's numbers read their
 fields whatever the outcome (``&``, not ``and``). Written the other way (``record[f] = new if keep else
 record[f]``), LLVM drops the store where the number would not change and vectorizes what is left as a
-masked store, which writes only the kept lanes: one or two instructions on Intel cores, but microcoded and
-many times slower on AMD's Zen. On a 2-core AMD EPYC (znver3, AVX2) the passes had 24 masked stores each;
-without them the batch of ``benchmarks.planar_batch`` costs about a fifth less (the numbers are the same).
+masked store, which writes only the kept lanes: cheap on recent Intel cores, slow on AMD's Zen (as
+published instruction tables list it). On a 2-core AMD EPYC (znver3, AVX2) each build of the pass's walk had 15
+to 27 masked stores (in its LLVM IR) and they were its hottest instructions; without them the batch of
+``benchmarks.planar_batch`` costs about a quarter less (the numbers are the same).
 
 ``LANES`` trades padding for width: a wave of ``c`` manifolds takes ``ceil(c / LANES)`` blocks, the last
 one partly empty, and an empty lane costs what a full one does; 4 lanes fill one AVX2 register of doubles.
