@@ -24,16 +24,16 @@ point or without a movable side would change is kept by a select, not added as a
 (its normals, then its frictions), so a pass gives the numbers of visiting the manifolds in table order to
 the bit (``wavefront``).
 
-The selects are taken on numbers in registers, never written back where the kept number already lies: a
-loop's visits read a lane's velocities once, carry them through both points' visits and write them once
-(``put_velocities``), each visit writes its point's impulse whether the lane has the point or not (a lane
-without it holds zeros that nothing reads back), and the tests that choose a lane's numbers read their
-fields whatever the outcome (``&``, not ``and``). Written the other way (``record[f] = new if keep else
-record[f]``), LLVM drops the store where the number would not change and vectorizes what is left as a
-masked store, which writes only the kept lanes: cheap on recent Intel cores, slow on AMD's Zen (as
-published instruction tables list it). On a 2-core AMD EPYC (znver3, AVX2) each build of the pass's walk had 15
-to 27 masked stores (in its LLVM IR) and they were its hottest instructions; without them the batch of
-``benchmarks.planar_batch`` costs about a quarter less (the numbers are the same).
+The selects are taken on numbers in registers, never written back where the kept number already lies: a loop's
+visits read a lane's velocities once, carry them through both points' visits and write them once
+(``put_velocities``), each visit writes its point's impulse whether the lane has the point or not (a lane without
+it holds zeros that nothing reads back), and the tests that choose a lane's numbers read their fields whatever
+the outcome (``&``, not ``and``). Written the other way (``record[f] = new if keep else record[f]``), LLVM drops
+the store where the number would not change and vectorizes what is left as a masked store, which writes only the
+kept lanes: cheap on recent Intel cores, slow on AMD's Zen (as published instruction tables list it). On a 2-core
+AMD EPYC (znver3, AVX2) each build of the pass's walk had 15 to 27 masked stores (in its LLVM IR), which alone
+took a seventh of its time in a profile; without them the batch of ``benchmarks.planar_batch`` costs about a
+quarter less (the numbers are the same).
 
 ``LANES`` trades padding for width: a wave of ``c`` manifolds takes ``ceil(c / LANES)`` blocks, the last
 one partly empty, and an empty lane costs what a full one does; 4 lanes fill one AVX2 register of doubles.
