@@ -259,8 +259,8 @@ def velocities(record: np.ndarray, at: np.uint64) -> tuple[float, float, float, 
 def put_velocities(record: np.ndarray, at: np.uint64, vax: float, vay: float, wa: float, vbx: float, vby: float,
                    wb: float) -> None:
     """A lane's velocities back to its record, once its visits are done. Written whole, whatever a visit
-    kept: a select stored back where the lane's number already lies is compiled as a masked store (only the
-    kept lanes written), and a masked store of four doubles costs an AMD Zen core many times a plain one."""
+    kept: a select stored back where the lane's number already lies is compiled as a masked store (the
+    module doc says why that is avoided)."""
     record[at + R_VAX], record[at + R_VAY], record[at + R_WA] = vax, vay, wa
     record[at + R_VBX], record[at + R_VBY], record[at + R_WB] = vbx, vby, wb
 
@@ -317,30 +317,27 @@ def normals(record: np.ndarray, begin: np.uint64, end: np.uint64, h: float, use_
     more than the division in the passes that measure."""
     for blk in range(begin, end):
         if moved:
-            for lane in range(np.uint64(LANES)):
-                at = blk * np.uint64(BLOCK) + lane
-                vax, vay, wa, vbx, vby, wb = velocities(record, at)
-                for q in range(2):
-                    measure(record, at, q)
-                    vax, vay, wa, vbx, vby, wb = normal_visit(record, at, q, h, use_bias, push_out, True,
-                                                              vax, vay, wa, vbx, vby, wb)
-                put_velocities(record, at, vax, vay, wa, vbx, vby, wb)
+            normal_lanes(record, blk, h, use_bias, push_out, True, True)
         elif apart(record, blk):
-            for lane in range(np.uint64(LANES)):
-                at = blk * np.uint64(BLOCK) + lane
-                vax, vay, wa, vbx, vby, wb = velocities(record, at)
-                for q in range(2):
-                    vax, vay, wa, vbx, vby, wb = normal_visit(record, at, q, h, use_bias, push_out, True,
-                                                              vax, vay, wa, vbx, vby, wb)
-                put_velocities(record, at, vax, vay, wa, vbx, vby, wb)
+            normal_lanes(record, blk, h, use_bias, push_out, False, True)
         else:
-            for lane in range(np.uint64(LANES)):
-                at = blk * np.uint64(BLOCK) + lane
-                vax, vay, wa, vbx, vby, wb = velocities(record, at)
-                for q in range(2):
-                    vax, vay, wa, vbx, vby, wb = normal_visit(record, at, q, h, use_bias, push_out, False,
-                                                              vax, vay, wa, vbx, vby, wb)
-                put_velocities(record, at, vax, vay, wa, vbx, vby, wb)
+            normal_lanes(record, blk, h, use_bias, push_out, False, False)
+
+
+@inlined
+def normal_lanes(record: np.ndarray, blk: np.uint64, h: float, use_bias: bool, push_out: float, measuring: bool,
+                 some_apart: bool) -> None:
+    """Both points' normal visits in every lane of block ``blk``, each point's separation measured first when
+    ``measuring`` (``normals`` passes both flags as constants, so each build tests neither)."""
+    for lane in range(np.uint64(LANES)):
+        at = blk * np.uint64(BLOCK) + lane
+        vax, vay, wa, vbx, vby, wb = velocities(record, at)
+        for q in range(2):
+            if measuring:
+                measure(record, at, q)
+            vax, vay, wa, vbx, vby, wb = normal_visit(record, at, q, h, use_bias, push_out, some_apart,
+                                                      vax, vay, wa, vbx, vby, wb)
+        put_velocities(record, at, vax, vay, wa, vbx, vby, wb)
 
 
 @inlined
