@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from stackx.kernel import compiled
-from stackx.models.planar import mode_rows
+from stackx.models.planar import banded, mode_rows
 
 
 def rows(rng: np.random.Generator, count: int, dof: int) -> tuple[np.ndarray, np.ndarray]:
@@ -21,27 +21,42 @@ def rows(rng: np.random.Generator, count: int, dof: int) -> tuple[np.ndarray, np
 
 
 @pytest.mark.parametrize("on", [False, True])
-def test_matrix_is_the_dense_sum_in_sorted_columns(on: bool) -> None:
-    rng = np.random.default_rng(3)
-    dof = 24
-    j_rows, j_columns = rows(rng, 40, dof)
-    g = rng.standard_normal((40, 6))
-    diagonal = rng.uniform(1.0, 2.0, dof)
-    dense = np.diag(diagonal)
-    for r in range(40):
-        for i in range(6):
-            for jj in range(6):
-                if j_columns[r, i] < dof and j_columns[r, jj] < dof:
-                    dense[j_columns[r, i], j_columns[r, jj]] += g[r, i] * j_rows[r, jj] / 1e-3
+def test_proximal_steps_reach_the_answer_of_the_mode_system(on: bool) -> None:
+    # the fixed point of the proximal steps solves J_F v = base with M (v - v0) = G q, written densely; three rows
+    # repeat others (two points of a face carrying one load), so the system is singular and its answers many
+    rng = np.random.default_rng(7)
+    dof, free = 12, 9
+    j_rows, j_columns = rows(rng, 6, dof)
+    j_rows, j_columns = np.concatenate([j_rows, j_rows[:3]]), np.concatenate([j_columns, j_columns[:3]])
+    g = j_rows * rng.uniform(0.5, 2.0, (free, 1))
+    mass = rng.uniform(1.0, 2.0, dof)
+    v0 = rng.standard_normal(dof)
+    base = 0.1 * rng.standard_normal(free)
+    base[6:] = base[:3]
+    dense_j = np.zeros((free, dof + 1))
+    dense_g = np.zeros((free, dof + 1))
+    for r in range(free):
+        np.add.at(dense_j[r], j_columns[r], j_rows[r])
+        np.add.at(dense_g[r], j_columns[r], g[r])
+    dense_j, dense_g = dense_j[:, :dof], dense_g[:, :dof]
+    proximal = 1e-2
+    where, half = banded.ordering(j_columns, dof)
+    ab = banded.band(mass, where, half)
+    banded.add(ab, half, where, np.full(free, 1.0 / proximal), g, j_rows, j_columns)
+    pivots = np.zeros(dof, np.int64)
+    assert banded.factor(ab, half, pivots)
     with compiled(on):
-        data, indices, indptr = mode_rows.matrix(diagonal, g, j_rows, j_columns, 1e-3)
-    built = np.zeros((dof, dof))
-    for c in range(dof):
-        column = indices[indptr[c]:indptr[c + 1]]
-        assert np.all(np.diff(column) > 0)  # sorted, each row once
-        built[column, c] = data[indptr[c]:indptr[c + 1]]
-    np.testing.assert_allclose(built, dense, rtol=1e-13, atol=1e-9)
-    assert indptr[-1] == np.count_nonzero(np.abs(dense) > 0)
+        q = mode_rows.proximal_steps(ab, half, pivots, where, g, j_rows, j_columns, base, mass * v0, proximal,
+                                     np.zeros(free), 2000, 1e-14, np.ones(free, np.bool_), 0.01)
+    v = v0 + (dense_g.T @ q) / mass
+    np.testing.assert_allclose(dense_j @ v, base, atol=1e-10)
+    # one step from a center is the regularized answer: J_F v + d (q - center) = base
+    center = rng.standard_normal(free)
+    with compiled(on):
+        one = mode_rows.proximal_steps(ab, half, pivots, where, g, j_rows, j_columns, base, mass * v0, proximal,
+                                       center, 1, 0.0, np.ones(free, np.bool_), 0.01)
+    v = v0 + (dense_g.T @ one) / mass
+    np.testing.assert_allclose(dense_j @ v + proximal * (one - center), base, atol=1e-10)
 
 
 @pytest.mark.parametrize("on", [False, True])

@@ -330,7 +330,8 @@ def test_a_loop_of_held_faces_whose_targets_disagree_by_a_hair_is_solved_by_a_fo
     # whose targets disagree by a few 1e-10 m/s, so every try stalls just above the tolerance, the error shared
     # out around the loop. The exact answer has a point of the loop sliding; probing the stall with one forced
     # slide per point, those slipping most first, finds it (the hair point of 40 on 45, the second probed).
-    # Without probes, Lemke's walk (the last try) lands it.
+    # Without probes, Lemke's walk (the last try) lands it; without that too, the tries made again from the
+    # stall with drifting rounds followed (``restart``).
     from stackx.models.planar import pivoting, reference
 
     (p, pn, pt), = _recorded("xpbd_pyramid_loop_step")
@@ -339,8 +340,11 @@ def test_a_loop_of_held_faces_whose_targets_disagree_by_a_hair_is_solved_by_a_fo
     assert residual(p, pivoted.pn, pivoted.pt) < 1e-10 and pivoted.attempt == 13
     monkeypatch.setattr(pivoting, "starts", lambda problem: iter(()))
     with pytest.raises(ReferenceFailure) as stalled:
-        solve(p, pn, pt, begin=4, interior=False)
+        solve(p, pn, pt, begin=4, interior=False, restart=False)
     assert 1e-10 < stalled.value.best < 3e-10
+    # made again from the stall, their rounds following the drift of the loop's mode system, the tries land
+    drifted = solve(p, pn, pt, begin=4, interior=False)
+    assert residual(p, drifted.pn, drifted.pt) < 1e-10
     monkeypatch.undo()
     sol = solve(p, pn, pt, begin=4, interior=False)
     assert residual(p, sol.pn, sol.pt) < 1e-10 and sol.attempt == 4
@@ -420,8 +424,9 @@ def test_a_solve_whose_tries_all_missed_by_a_hair_makes_them_again_from_the_clos
         monkeypatch: pytest.MonkeyPatch) -> None:
     # step 279 of pyramid-10 under planar-xpbd at 4 substeps, as the bench set it (222 points, the row's memory
     # beginning with the fourth try, which then made them again in the default order, as here): every try
-    # misses, the closest by 1.8e-9 m/s; from that answer the tries land. The solve's calls of itself are
-    # recorded: the tries are made once more, from the closest answer
+    # misses, the closest by 1.8e-9 m/s; from that answer, their Newton rounds following the drift of a mode
+    # system without an answer, the tries land. The solve's calls of itself are recorded: the tries are made
+    # once more, from the closest answer; without the drift followed they miss again (5.4e-10 m/s)
     from tests.planar.test_pivoting import _recorded_npz
 
     p, pn, pt = _recorded_npz("xpbd_pyramid10_restart_step")
@@ -439,3 +444,7 @@ def test_a_solve_whose_tries_all_missed_by_a_hair_makes_them_again_from_the_clos
     _, again = calls
     assert not again["restart"] and not again["interior"]  # made once, from where every try came closest
     assert reference.TOLERANCE < again["start"] < reference.RESTART
+    assert again["drift"] == reference.DRIFT > 0.0
+    monkeypatch.setattr(reference, "DRIFT", 0.0)
+    with pytest.raises(ReferenceFailure):
+        inner(p, pn, pt, interior=False)

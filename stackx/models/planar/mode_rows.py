@@ -5,14 +5,13 @@ system (``reference.ModeSystem``) does many times on a pile's 2m rows.
 degrees of freedom, ``dof`` standing for none): each row's six entries and their columns. A round
 
 - spreads impulses onto the velocities (``J^T y``) and gathers the rows' velocities back (``J v``), once per
-  merit the line search asks for and per proximal step;
-- builds the matrix it factors, ``diag(mass) + sum over free rows of g_r j_r^T / d``, as compressed columns.
+  merit the line search asks for;
+- takes its proximal steps, each a solve with the round's factorization (``banded``) between a spread and a
+  gather.
 
 In numpy each of these is a handful of array calls whose fixed cost (tens of microseconds) dwarfs their
-arithmetic on a pile of a few hundred points, and the matrix went through scipy's COO to CSC conversion,
-which sorts and sums duplicates in Python-facing objects: a 10-step bench of ``pyramid-10`` spent 9.5 s of
-its 24 s in building and factoring mode matrices, 3.8 s in merits. Compiled, the same sums cost what their
-arithmetic does.
+arithmetic on a pile of a few hundred points: a 10-step bench of ``pyramid-10`` spent 3.8 s of its 24 s in
+merits. Compiled, the same sums cost what their arithmetic does.
 """
 
 from __future__ import annotations
@@ -20,6 +19,7 @@ from __future__ import annotations
 import numpy as np
 
 from stackx.kernel import kernel
+from stackx.models.planar.banded import solve
 
 
 @kernel
@@ -85,61 +85,39 @@ def merit(qn: np.ndarray, qt: np.ndarray, gap: np.ndarray, cone: np.ndarray) -> 
 
 
 @kernel
-def matrix(diagonal: np.ndarray, g: np.ndarray, j_rows: np.ndarray, j_columns: np.ndarray,
-           proximal: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """``diag(diagonal) + sum_r g_r j_r^T / proximal`` over the free rows, as compressed columns
-    ``(data, indices, indptr)`` with sorted row indices and no duplicates; entries on the column of no
-    velocity (``dof = len(diagonal)``) are left out. Each column's entries are summed in the order the rows
-    come, after its diagonal."""
-    dof = diagonal.shape[0]
-    rows = j_rows.shape[0]
-    # which free rows reach each column (a row reaches six columns, two bodies')
-    reach = np.zeros(dof + 1, np.int64)
-    for r in range(rows):
-        for jj in range(6):
-            if j_columns[r, jj] < dof:
-                reach[j_columns[r, jj] + 1] += 1
-    for c in range(dof):
-        reach[c + 1] += reach[c]
-    by_column = np.empty(reach[dof], np.int64)
-    slot = reach[:dof].copy()
-    for r in range(rows):
-        for jj in range(6):
-            c = j_columns[r, jj]
-            if c < dof:
-                by_column[slot[c]] = r * 6 + jj
-                slot[c] += 1
-    where = np.full(dof, -1, np.int64)  # a column's entry per row index while that column is built
-    indptr = np.zeros(dof + 1, np.int64)
-    indices = np.empty(dof + 6 * reach[dof], np.int64)
-    data = np.empty(dof + 6 * reach[dof])
-    count = 0
-    for c in range(dof):
-        begin = count
-        where[c] = count
-        indices[count], data[count] = c, diagonal[c]
-        count += 1
-        for s in range(reach[c], reach[c + 1]):
-            r, jj = by_column[s] // 6, by_column[s] % 6
-            for i in range(6):
-                row = j_columns[r, i]
-                if row < dof:
-                    value = g[r, i] * j_rows[r, jj] / proximal
-                    if where[row] < begin:
-                        where[row] = count
-                        indices[count], data[count] = row, value
-                        count += 1
-                    else:
-                        data[where[row]] += value
-        # sort the column's entries by row (a pile's column holds a few tens): insertion sort
-        for a in range(begin + 1, count):
-            row, value = indices[a], data[a]
-            b = a - 1
-            while b >= begin and indices[b] > row:
-                indices[b + 1], data[b + 1] = indices[b], data[b]
-                b -= 1
-            indices[b + 1], data[b + 1] = row, value
-        for a in range(begin, count):
-            where[indices[a]] = -1
-        indptr[c + 1] = count
-    return data[:count], indices[:count], indptr
+def proximal_steps(ab: np.ndarray, half: int, pivots: np.ndarray, where: np.ndarray, g: np.ndarray,
+                   j_rows: np.ndarray, j_columns: np.ndarray, base: np.ndarray, momentum: np.ndarray,
+                   proximal: float, out: np.ndarray, most: int, stop: float, normal: np.ndarray,
+                   drift: float) -> np.ndarray:
+    """Up to ``most`` proximal steps of a factored mode system (``banded``: ``ab``, ``half``, ``pivots``,
+    ``where``) from the free rows' scaled impulses ``out``: each solves ``(M + G J_F / d) v = M v0 + G h / d``
+    for ``h = base + d out`` and moves to ``(h - J_F v) / d``, until no impulse moves by more than ``stop``.
+    The mode combination's answer is their fixed point; one step from a center is the regularized problem's.
+
+    **A system without an answer drifts.** Where held points close a loop whose targets disagree, no impulses
+    meet every row, and the steps settle into a steady drift that moves load around the loop, each step as
+    long as the last (within a share ``drift``). The answer then has a point of the loop apart, and the drift tells
+    which: the steps are followed, in one stride, until the first held point (``normal``: which free rows are
+    normals) is emptied, and the next round reads it as separating."""
+    dof = momentum.shape[0]
+    step = np.zeros_like(out)
+    change, last = np.inf, np.inf
+    for _ in range(most):
+        h = base + proximal * out
+        v = solve(ab, half, pivots, where, momentum + spread(g, j_columns, h, dof) / proximal)
+        new = (h - gathered(j_rows, j_columns, v)) / proximal
+        last, change = change, 0.0
+        for r in range(new.shape[0]):
+            step[r] = new[r] - out[r]
+            change = max(change, abs(step[r]))
+        out = new
+        if change <= stop:
+            return out
+    if abs(change - last) < drift * last:
+        stride = np.inf
+        for r in range(out.shape[0]):
+            if normal[r] and step[r] < 0.0:
+                stride = min(stride, out[r] / -step[r])
+        if stride < np.inf:
+            out = out + stride * step
+    return out

@@ -27,7 +27,7 @@ sliding tangent gives ``pt = +-mu pn``, a separating point gives ``pn = pt = 0``
    O(points) a sweep, compiled) from the caller's warm start, until the residual is below ``NEAR``;
 2. each Newton round reads the modes off the current answer with the same min / clip maps the residual uses
    (held when ``pn / k_n > un - target``; sliding when ``pt - k_t ut`` leaves ``[-mu pn, mu pn]``), solves
-   that mode combination's linear system with a sparse LU (``ModeSystem``: in the bodies' velocities, 3
+   that mode combination's linear system with a band LU (``ModeSystem``: in the bodies' velocities, 3
    unknowns per box however many points touch), and takes the step if it lowers the residual, else half of
    it, a quarter...; when no step does, more sweeps mend the modes. When the modes are right the answer is
    the solution up to rounding (semismooth Newton on the min-map, which converges locally in a few rounds);
@@ -95,12 +95,18 @@ first that does is the answer, checked by the residual like any other. A pile ma
 20-row pyramid does): a forced slide whose rounds leave fewer points off the contract is kept, and the probing
 goes on from there, within ``PROBES`` forced slides in all.
 
-**A restart from the closest answer.** Every try is local: it reads modes off where it starts and where its
-rounds take it. Where all of them missed but one came within ``RESTART`` (1e-8 m/s), the tries are made once
-more, in the default order, from the closest answer reached (``restart``; the restarted solve does not restart
-again). Step 279 of ``pyramid-10`` under ``planar-xpbd`` at 4 substeps missed every try (10.6 s, closest
-1.8e-9 m/s, 37 points off by up to that); from the closest answer the proximal point method lands in 1.3 s,
-and the pile's whole bench is left with no unsolved step.
+**A restart from the closest answer, following drifts.** Every try is local: it reads modes off where it
+starts and where its rounds take it. Where all of them missed but one came within ``RESTART`` (1e-8 m/s), the
+tries are made once more, in the default order, from the closest answer reached (``restart``; the restarted
+solve does not restart again), and there a Newton round whose mode system has no answer follows its drift
+(``DRIFT``, ``mode_rows.proximal_steps``): where held points close a loop whose targets disagree, the round's
+proximal steps settle into a steady drift moving load around the loop, and the round strides along it until
+the first held point is emptied, which the next round reads as apart. Step 279 of ``pyramid-10`` under
+``planar-xpbd`` at 4 substeps missed every try (closest 1.8e-9 m/s, 37 points off by up to that); made again
+from there with drifts followed, the full Newton rounds (the second try) land it in 0.03 s; without them every
+try misses again (5.4e-10 m/s). Only the restart follows drifts: made by every solve, a stride lands some steps sooner and sends
+others past the answer the path's end was next to (on recorded steps, a trembling ``stack-40`` and a loop on a
+pile went from the path's Newton tries, 0.03 to 0.07 s, to Lemke's walk, 1 to 1.8 s).
 
 **Where it may still fail.** A large problem (a 20-row pyramid has 800 points) on which every Newton try
 cycles, the proximal point method wanders, the forced slides probed do not land, and the proximal point method
@@ -134,9 +140,12 @@ near 1e-7 m/s, and mostly only Lemke's pivoting, the last try, solved a step: 2.
 face that cannot stick at both points, run off faster: at 1e-7, 3 of the first 150 steps of ``stack-10``
 under ``planar-xpbd`` at 16 substeps went unsolved, none at 1e-5.
 
-**Speed.** Scipy's sparse LU (SuperLU) factors a 20-row pyramid's mode system (630 velocities, 800 points)
-in about 10 ms; a dense LU of the same pyramid's Delassus system (2,360 unknowns) took 840 ms side by side
-on the same machine. It is the one place scipy is used (a new dependency).
+**Speed.** Every system is a band: ``banded`` orders the movable degrees of freedom once per problem (reverse
+Cuthill-McKee) and factors each mode system and each central path iteration there, compiled, with row pivoting.
+On a ``pyramid-10`` step (165 velocities, half width 20) building and factoring a mode system takes 0.15 ms, where
+scipy's SuperLU with its assembly took 0.58 ms side by side; a 20-row pyramid's (630 velocities, half width 35
+to 44) 1.6 ms against 2.8 to 3.1 ms, and its central path 67 ms against 167 to 190 ms. Scipy remains for
+Lemke's walk (``pivoting``).
 """
 
 from __future__ import annotations
@@ -148,7 +157,7 @@ from functools import partial
 import numpy as np
 
 from stackx.kernel import compiled, enabled, kernel
-from stackx.models.planar import mode_rows
+from stackx.models.planar import banded, mode_rows
 from stackx.models.planar.interior import central_path
 from stackx.models.planar.problem import (GROUND, ContactProblem, effective_masses, inverse_masses, jacobian_rows,
                                           point_residuals, residual, velocities_after)
@@ -163,6 +172,7 @@ NEAR = 1e-3  # m/s: the sweeps stop once the residual is below this (Newton take
 ROUNDS = 20  # Newton rounds of each try before the next one (three tries before the solve gives up)
 WARM_ROUNDS = 2  # Newton rounds from a near warm start before the interior point stage
 REFINE = 30  # most proximal steps per Newton round (each a solve with the round's factorization)
+DRIFT = 0.01  # a round's last two proximal steps, equally long within this share, drift (``mode_rows.proximal_steps``)
 QUICK = 2  # tries of a quick solve: the first two of its order (from the warm start: damped, then full rounds)
 WANDER = 3  # full Newton steps in a row that may leave the residual above the best (last try)
 MIN_STEP = 1.0 / 64  # the shortest Newton step tried before going back to sweeps
@@ -265,7 +275,7 @@ def backtrack(merit: Callable[[np.ndarray], float], q: np.ndarray, target: np.nd
 
 def solve(problem: ContactProblem, pn: np.ndarray | None = None, pt: np.ndarray | None = None,
           tolerance: float = TOLERANCE, sweeps: int = SWEEPS, rounds: int = ROUNDS, quick: bool = False,
-          begin: int = 1, interior: bool = True, restart: bool = True) -> Solution:
+          begin: int = 1, interior: bool = True, restart: bool = True, drift: float = 0.0) -> Solution:
     """Solve ``problem`` to ``residual < tolerance`` (m/s), starting from impulses ``pn``, ``pt`` (a warm
     start, e.g. the last step's by feature; zeros when None). ``begin``: the try (numbered as
     ``Solution.attempt``) to make first, the ones before it coming last: the try that landed the last step of
@@ -273,8 +283,9 @@ def solve(problem: ContactProblem, pn: np.ndarray | None = None, pt: np.ndarray 
     same try as long as the problem stays on the same side of ``LEMKE_EARLY`` points). ``quick``: the first
     ``QUICK`` tries of that order only, the proximal point method's walk cut to ``SETTLE_QUICK`` rounds (see
     ``step_problem.ReferenceStep``: after steps in a row that every try failed). ``restart``: where every try
-    missed but one came within ``RESTART``, the tries are made once more from that closest answer. Raises
-    ``ReferenceFailure`` when no try gets there (see the module text for the method)."""
+    missed but one came within ``RESTART``, the tries are made once more from that closest answer, their Newton
+    rounds following a drift (``drift``: see ``ModeSystem``). Raises ``ReferenceFailure`` when no try gets there
+    (see the module text for the method)."""
     m, n = problem.points, problem.bodies
     pn = np.zeros(m) if pn is None else np.array(pn, dtype=np.float64)
     pt = np.zeros(m) if pt is None else np.array(pt, dtype=np.float64)
@@ -285,7 +296,7 @@ def solve(problem: ContactProblem, pn: np.ndarray | None = None, pt: np.ndarray 
         bad = int(np.flatnonzero(~(np.isfinite(kn) & np.isfinite(kt)))[0])
         raise ReferenceFailure(f"contact point {bad} joins two immovable bodies "
                                f"({problem.body_a[bad]}, {problem.body_b[bad]}): no impulse can act on it")
-    newton = ModeSystem(problem, kn, kt, PROXIMAL)
+    newton = ModeSystem(problem, kn, kt, PROXIMAL, drift)
     args = (problem.body_a, problem.body_b, problem.normal, problem.ra, problem.rb, problem.friction,
             problem.target, problem.inv_mass, problem.inv_inertia, kn, kt)
     swept = 0
@@ -408,7 +419,7 @@ def solve(problem: ContactProblem, pn: np.ndarray | None = None, pt: np.ndarray 
         up, and grows tenfold after one whose problem was not solved, which is then left. Once the
         contract's residual is below ``POLISH``, ``rounds`` full Newton rounds try to land on the answer of
         the modes read there, again each time the residual has fallen tenfold or the modes changed since."""
-        system = ModeSystem(problem, kn, kt, start)
+        system = ModeSystem(problem, kn, kt, start, drift)
         best = polished = reached = system.merit(q)  # reached: the contract's residual at q
         tried = None  # the modes the last full rounds started from
         spent = 0  # Newton rounds of the regularized problems
@@ -466,7 +477,7 @@ def solve(problem: ContactProblem, pn: np.ndarray | None = None, pt: np.ndarray 
         while budget > 0:
             bodies = np.setdiff1d(np.concatenate([problem.body_a[bad], problem.body_b[bad]]), [GROUND])
             around = np.isin(problem.body_a, bodies) | np.isin(problem.body_b, bodies)
-            newton = ModeSystem(problem, kn, kt, PROXIMAL)
+            newton = ModeSystem(problem, kn, kt, PROXIMAL, drift)
             gap, qn, qt = newton.gap(q), q[:m], q[m:]
             stick = (qn > gap[:m]) & (np.abs(qt - gap[m:]) <= newton.cone * qn)
             slip = gap[m:]
@@ -475,7 +486,7 @@ def solve(problem: ContactProblem, pn: np.ndarray | None = None, pt: np.ndarray 
             kept = None
             for i in points[:budget]:
                 budget -= 1
-                newton = ModeSystem(problem, kn, kt, PROXIMAL)
+                newton = ModeSystem(problem, kn, kt, PROXIMAL, drift)
                 newton.forced = {**forced, i: -float(np.sign(slip[i]))}
                 found, reached = full(q, 2 * rounds)
                 if found is not None:
@@ -568,7 +579,7 @@ def solve(problem: ContactProblem, pn: np.ndarray | None = None, pt: np.ndarray 
     best, probed = np.inf, False
     for number, (proximal, run) in numbered:
         if proximal != newton.proximal or newton.forced:
-            newton = ModeSystem(problem, kn, kt, proximal)
+            newton = ModeSystem(problem, kn, kt, proximal, drift)
         newton.modes = None
         found, reached = run()
         if found is None and not probed and closest[0] < PROBE_NEAR:
@@ -590,7 +601,8 @@ def solve(problem: ContactProblem, pn: np.ndarray | None = None, pt: np.ndarray 
         # every try is local: begun from the closest answer any of them reached, they read its modes, not the
         # warm start's (see the module text)
         try:
-            return solve(problem, kept_pn, kept_pt, tolerance, sweeps, rounds, interior=False, restart=False)
+            return solve(problem, kept_pn, kept_pt, tolerance, sweeps, rounds, interior=False, restart=False,
+                         drift=DRIFT)
         except ReferenceFailure as again:
             if again.best < closest[0]:
                 raise
@@ -609,16 +621,15 @@ class ModeSystem:
     and the velocities ``M v = M v0 + G q`` (``G``: each free row's impulse direction, a sliding point's
     normal column carrying its friction too). Eliminating ``q = (h - J_F v) / d`` leaves
     ``(M + G J_F / d) v = M v0 + G h / d``: one unknown per movable degree of freedom (3 per box), however
-    many points touch, symmetric unless a point slides; SuperLU factors it in a few milliseconds.
+    many points touch, symmetric unless a point slides, a band in the order ``banded.ordering`` finds.
 
     ``J`` is held row by row (``problem.jacobian_rows``: six entries per row), so ``J x`` is a gather,
-    ``J^T y`` a ``bincount``, and a mode system's matrix is assembled from each free row's 6 x 6 outer
-    product in one pass: the only sparse object a round makes is the matrix it factors. (Built from scipy
-    sparse products instead, a 30-step bench of ``pyramid-10`` spent 218 s against 136 s, side by side:
-    ``python3 -m benchmarks.planar_reference --bench configs/planar/pyramid-10.yaml --steps 30``.)
+    ``J^T y`` a sum over rows, and a mode system's band is assembled from each free row's 6 x 6 outer
+    product in one pass; a round's proximal steps run compiled (``mode_rows.proximal_steps``).
     """
 
-    def __init__(self, problem: ContactProblem, kn: np.ndarray, kt: np.ndarray, proximal: float = PROXIMAL) -> None:
+    def __init__(self, problem: ContactProblem, kn: np.ndarray, kt: np.ndarray, proximal: float = PROXIMAL,
+                 drift: float = 0.0) -> None:
         self.m = m = problem.points
         inv = inverse_masses(problem)
         free_dof = inv > 0.0
@@ -627,6 +638,7 @@ class ModeSystem:
         where[:-1][free_dof] = np.arange(dof)
         values, columns = jacobian_rows(problem)
         self.values, self.columns = values, where[columns]
+        self.where, self.half = banded.ordering(self.columns, dof)  # the band every mode system of it is factored in
         self.inv = inv[free_dof]
         v0 = problem.velocity.reshape(-1)
         self.v0 = v0[free_dof].copy()
@@ -640,6 +652,7 @@ class ModeSystem:
         self.forced: dict[int, float] = {}  # point: +-1, held and sliding that way whatever the impulses say
         self.kept = False
         self.proximal = proximal  # the weight d; may be changed between rounds (the factorization follows)
+        self.drift = drift  # 0: a round's proximal steps stop after REFINE; else a steady drift is followed
         self.factored = proximal
 
     def spread(self, values: np.ndarray, columns: np.ndarray, weights: np.ndarray) -> np.ndarray:
@@ -675,11 +688,9 @@ class ModeSystem:
         return modes
 
     def factor(self, held: np.ndarray, plus: np.ndarray, minus: np.ndarray) -> None:
-        """Factor the mode combination's matrix ``M + G J_F / d`` (see the class text)."""
-        from scipy import sparse
-        from scipy.sparse.linalg import splu
-
-        m, dof = self.m, self.dof
+        """Factor the mode combination's matrix ``M + G J_F / d`` (see the class text), as a band
+        (``banded``) in the order found for the problem's rows: a subset's band is no wider."""
+        m = self.m
         stick = held & ~plus & ~minus
         self.free = free = np.flatnonzero(np.concatenate([held, stick]))
         sign = np.where(plus, 1.0, np.where(minus, -1.0, 0.0))
@@ -691,14 +702,11 @@ class ModeSystem:
         point = free[normal]
         g[normal] += (sign * self.mu * self.k[:m])[point][:, None] * self.values[m + point]
         self.g = g
-        matrix = sparse.csc_matrix(mode_rows.matrix(1.0 / self.inv, g, self.j_rows, self.j_columns, self.proximal),
-                                   shape=(dof, dof))
-        try:
-            # symmetric unless a point slides: then pivot for stability, as for any unsymmetric matrix
-            symmetric = not (plus.any() or minus.any())
-            self.factors = splu(matrix, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0 if symmetric else 1.0,
-                                options={"SymmetricMode": symmetric})
-        except RuntimeError:  # a singular mode system: the caller goes back to sweeps
+        self.factors = banded.band(1.0 / self.inv, self.where, self.half)
+        banded.add(self.factors, self.half, self.where, np.full(free.shape[0], 1.0 / self.proximal), g, self.j_rows,
+                   self.j_columns)
+        self.pivots = np.zeros(self.dof, np.int64)
+        if not banded.factor(self.factors, self.half, self.pivots):  # a singular mode system: back to sweeps
             self.factors = None
         self.sign = sign
 
@@ -732,15 +740,9 @@ class ModeSystem:
         # infinity: that is expected, and the caller's merit (inf or NaN) rejects the step
         with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
             # proximal steps on one factorization converge to the modes' answer; with a center, one step is it
-            for _ in range(REFINE if center is None else 1):
-                h = base + self.proximal * out
-                v = np.append(self.factors.solve(momentum + self.spread(self.g, self.j_columns, h) / self.proximal),
-                              0.0)
-                new = (h - mode_rows.gathered(self.j_rows, self.j_columns, v)) / self.proximal
-                change = np.abs(new - out).max(initial=0.0)
-                out = new
-                if change <= 1e-3 * TOLERANCE:
-                    break
+            out = mode_rows.proximal_steps(self.factors, self.half, self.pivots, self.where, self.g, self.j_rows,
+                                           self.j_columns, base, momentum, self.proximal, out,
+                                           REFINE if center is None else 1, 1e-3 * TOLERANCE, free < m, self.drift)
             q = np.zeros(2 * m)
             q[free] = out
             q[m:] += self.sign * self.cone * q[:m]

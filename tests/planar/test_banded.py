@@ -1,0 +1,88 @@
+"""The band LU of the reference's systems (``stackx.models.planar.banded``) against dense numpy, plain and
+compiled: the order's band holds every entry, the assembly is the dense sum, and the factors solve it."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from stackx.kernel import compiled
+from stackx.models.planar import banded
+from tests.planar.test_mode_rows import rows
+
+
+def dense_sum(diagonal: np.ndarray, weight: np.ndarray, left: np.ndarray, right: np.ndarray,
+              columns: np.ndarray) -> np.ndarray:
+    """``diag + sum_r weight_r left_r right_r^T``, entry by entry (column ``len(diagonal)``: none)."""
+    dof = diagonal.shape[0]
+    dense = np.diag(diagonal)
+    for r in range(columns.shape[0]):
+        for i in range(6):
+            for jj in range(6):
+                if columns[r, i] < dof and columns[r, jj] < dof:
+                    dense[columns[r, i], columns[r, jj]] += weight[r] * left[r, i] * right[r, jj]
+    return dense
+
+
+def chain(bodies: int) -> np.ndarray:
+    """The columns of rows joining body ``i`` to ``i + 1`` in a shuffled numbering, plus one on the ground
+    (column ``3 * bodies``) for the first: a pile one box wide, numbered anyhow."""
+    rng = np.random.default_rng(2)
+    label = rng.permutation(bodies)
+    dof = 3 * bodies
+    columns = [np.concatenate([np.full(3, dof), 3 * label[0] + np.arange(3)])]
+    for i in range(bodies - 1):
+        columns.append(np.concatenate([3 * label[i] + np.arange(3), 3 * label[i + 1] + np.arange(3)]))
+    return np.array(columns, np.int64)
+
+
+@pytest.mark.parametrize("on", [False, True])
+def test_the_order_puts_a_chain_in_a_narrow_band(on: bool) -> None:
+    columns = chain(30)
+    with compiled(on):
+        where, half = banded.ordering(columns, 90)
+    assert sorted(where[:90]) == list(range(90)) and where[90] == 90
+    assert half == 5  # a box's three and its neighbour's three: every entry within five of the diagonal
+    natural = max(abs(a - b) for row in columns for a in row for b in row if a < 90 and b < 90)
+    assert natural > 5 * half  # the shuffled numbering's own band is far wider
+
+
+@pytest.mark.parametrize("on", [False, True])
+def test_the_band_solves_what_numpy_solves(on: bool) -> None:
+    rng = np.random.default_rng(4)
+    dof = 30
+    columns = rows(rng, 50, dof)[1]
+    left, right = rng.standard_normal((50, 6)), rng.standard_normal((50, 6))  # unsymmetric: pivoting needed
+    weight, diagonal = rng.uniform(0.5, 2.0, 50), rng.uniform(0.01, 0.02, dof)
+    dense = dense_sum(diagonal, weight, left, right, columns)
+    rhs = rng.standard_normal(dof)
+    with compiled(on):
+        where, half = banded.ordering(columns, dof)
+        ab = banded.band(diagonal, where, half)
+        banded.add(ab, half, where, weight, left, right, columns)
+        # the band in order: every entry of the dense sum, where the order puts it
+        within = np.zeros((dof, dof))
+        for i in range(dof):
+            for j in range(dof):
+                if abs(where[i] - where[j]) <= half:
+                    within[i, j] = ab[where[j], 2 * half + where[i] - where[j]]
+        np.testing.assert_allclose(within, dense, rtol=1e-14, atol=1e-14)
+        pivots = np.zeros(dof, np.int64)
+        assert banded.factor(ab, half, pivots)
+        x = banded.solve(ab, half, pivots, where, rhs)
+    assert x.shape == (dof + 1,) and x[dof] == 0.0
+    np.testing.assert_allclose(x[:dof], np.linalg.solve(dense, rhs), rtol=1e-9, atol=1e-9)
+    assert np.abs(dense @ x[:dof] - rhs).max() < 1e-10
+
+
+@pytest.mark.parametrize("on", [False, True])
+def test_a_singular_system_is_reported(on: bool) -> None:
+    columns = chain(4)
+    weight = np.ones(4)
+    left = np.zeros((4, 6))
+    left[:, 3:] = 1.0
+    with compiled(on):
+        where, half = banded.ordering(columns, 12)
+        ab = banded.band(np.zeros(12), where, half)  # no mass, and rows that reach one direction of each body
+        banded.add(ab, half, where, weight, left, left, columns)
+        assert not banded.factor(ab, half, np.zeros(12, np.int64))
