@@ -205,7 +205,7 @@ def direction(aim: float, second: bool, predictor: np.ndarray, state: np.ndarray
     the velocities' change (with a 0 appended) and the per-point changes, rows as ``state``'s."""
     m = cone.shape[0]
     dof = ab.shape[0]
-    qn, qt, s, bp, bm, fp, fm = state[QN], state[QT], state[S], state[BP], state[BM], state[FP], state[FM]
+    qn, s, bp, bm, fp, fm = state[QN], state[S], state[BP], state[BM], state[FP], state[FM]
     r_n, r_t, r_p, r_m = rest[0], rest[1], rest[2], rest[3]
     c_n, c_p, c_m = aim - s * qn, (aim - fp * bp) * rough, (aim - fm * bm) * rough
     if second:

@@ -104,9 +104,10 @@ proximal steps settle into a steady drift moving load around the loop, and the r
 the first held point is emptied, which the next round reads as apart. Step 279 of ``pyramid-10`` under
 ``planar-xpbd`` at 4 substeps missed every try (closest 1.8e-9 m/s, 37 points off by up to that); made again
 from there with drifts followed, the full Newton rounds (the second try) land it in 0.03 s; without them every
-try misses again (5.4e-10 m/s). Only the restart follows drifts: made by every solve, a stride lands some steps sooner and sends
-others past the answer the path's end was next to (on recorded steps, a trembling ``stack-40`` and a loop on a
-pile went from the path's Newton tries, 0.03 to 0.07 s, to Lemke's walk, 1 to 1.8 s).
+try misses again (5.4e-10 m/s). Only the restart follows drifts: made by every solve, a stride lands some
+steps sooner and sends others past the answer the path's end was next to (on recorded steps, a trembling
+``stack-40`` and a loop on a pile went from the path's Newton tries, 0.03 to 0.07 s, to Lemke's walk, 1 to
+1.8 s).
 
 **Where it may still fail.** A large problem (a 20-row pyramid has 800 points) on which every Newton try
 cycles, the proximal point method wanders, the forced slides probed do not land, and the proximal point method
@@ -172,7 +173,7 @@ NEAR = 1e-3  # m/s: the sweeps stop once the residual is below this (Newton take
 ROUNDS = 20  # Newton rounds of each try before the next one (three tries before the solve gives up)
 WARM_ROUNDS = 2  # Newton rounds from a near warm start before the interior point stage
 REFINE = 30  # most proximal steps per Newton round (each a solve with the round's factorization)
-DRIFT = 0.01  # a round's last two proximal steps, equally long within this share, drift (``mode_rows.proximal_steps``)
+DRIFT = 0.01  # a round's last two proximal steps as long within this share: a drift (mode_rows.proximal_steps)
 QUICK = 2  # tries of a quick solve: the first two of its order (from the warm start: damped, then full rounds)
 WANDER = 3  # full Newton steps in a row that may leave the residual above the best (last try)
 MIN_STEP = 1.0 / 64  # the shortest Newton step tried before going back to sweeps
@@ -654,10 +655,6 @@ class ModeSystem:
         self.proximal = proximal  # the weight d; may be changed between rounds (the factorization follows)
         self.drift = drift  # 0: a round's proximal steps stop after REFINE; else a steady drift is followed
         self.factored = proximal
-
-    def spread(self, values: np.ndarray, columns: np.ndarray, weights: np.ndarray) -> np.ndarray:
-        """``sum_r weights_r J_r^T`` over the given rows, on the movable degrees of freedom."""
-        return mode_rows.spread(values, columns, weights, self.dof)
 
     def merit(self, q: np.ndarray, center: np.ndarray | None = None) -> float:
         """The contract's residual (m/s) of scaled impulses ``q``, from ``W`` (the min map of every normal,
