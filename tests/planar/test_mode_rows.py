@@ -79,3 +79,40 @@ def test_gaps_and_merit_are_the_numpy_sums(on: bool) -> None:
         assert mode_rows.merit(q[:m], q[m:], gap, cone) == worst
         q[3] = np.nan
         assert mode_rows.merit(q[:m], q[m:], gap, cone) == np.inf
+
+
+@pytest.mark.parametrize("on", [False, True])
+def test_a_system_without_an_answer_drifts_until_a_held_point_is_emptied(on: bool) -> None:
+    # two points on one face pushing along the same row, whose targets disagree: no impulses meet both, and the
+    # proximal steps move load from one to the other by the same amount each step. Followed, the drift empties
+    # the point losing load, and the other carries the rest; not followed, both still carry load
+    rng = np.random.default_rng(9)
+    dof = 6
+    j_rows, j_columns = rows(rng, 1, dof)
+    j_rows, j_columns = np.concatenate([j_rows, j_rows]), np.concatenate([j_columns, j_columns])
+    g = j_rows.copy()
+    mass = rng.uniform(1.0, 2.0, dof)
+    v0 = rng.standard_normal(dof)
+    base = np.array([0.1, 0.1 + 1e-5])
+    proximal = 1e-2
+    where, half = banded.ordering(j_columns, dof)
+    ab = banded.band(mass, where, half)
+    banded.add(ab, half, where, np.full(2, 1.0 / proximal), g, j_rows, j_columns)
+    pivots = np.zeros(dof, np.int64)
+    assert banded.factor(ab, half, pivots)
+    start = np.array([1.0, 1.0])
+    normal = np.ones(2, np.bool_)
+    with compiled(on):
+        kept = mode_rows.proximal_steps(ab, half, pivots, where, g, j_rows, j_columns, base, mass * v0, proximal,
+                                        start, 30, 1e-14, normal, 0.0)
+        followed = mode_rows.proximal_steps(ab, half, pivots, where, g, j_rows, j_columns, base, mass * v0,
+                                            proximal, start, 30, 1e-14, normal, 0.01)
+    assert (kept > 0.0).all()
+    drift = kept - mode_rows.proximal_steps(ab, half, pivots, where, g, j_rows, j_columns, base, mass * v0,
+                                            proximal, start, 29, 1e-14, normal, 0.0)
+    emptied = int(np.argmin(drift))  # the point whose load the drift takes
+    assert drift[emptied] < 0.0 < drift[1 - emptied]
+    assert abs(followed[emptied]) < 1e-12 and followed[1 - emptied] > kept[1 - emptied]
+    # the stride is along the drift: the two loads move in the drift's proportion
+    np.testing.assert_allclose((followed - kept) / np.abs(followed - kept).max(), drift / np.abs(drift).max(),
+                               rtol=1e-6, atol=1e-9)

@@ -116,7 +116,7 @@ def proximal_steps(ab: np.ndarray, half: int, pivots: np.ndarray, where: np.ndar
     if abs(change - last) < drift * last:
         stride = np.inf
         for r in range(out.shape[0]):
-            if normal[r] and step[r] < 0.0:
+            if normal[r] and step[r] < 0.0 and out[r] > 0.0:
                 stride = min(stride, out[r] / -step[r])
         if stride < np.inf:
             out = out + stride * step

@@ -103,11 +103,11 @@ solve does not restart again), and there a Newton round whose mode system has no
 proximal steps settle into a steady drift moving load around the loop, and the round strides along it until
 the first held point is emptied, which the next round reads as apart. Step 279 of ``pyramid-10`` under
 ``planar-xpbd`` at 4 substeps missed every try (closest 1.8e-9 m/s, 37 points off by up to that); made again
-from there with drifts followed, the full Newton rounds (the second try) land it in 0.03 s; without them every
-try misses again (5.4e-10 m/s). Only the restart follows drifts: made by every solve, a stride lands some
-steps sooner and sends others past the answer the path's end was next to (on recorded steps, a trembling
-``stack-40`` and a loop on a pile went from the path's Newton tries, 0.03 to 0.07 s, to Lemke's walk, 1 to
-1.8 s).
+from there with drifts followed, the full Newton rounds (the second try) land it in under 0.1 s; without them
+every try misses again (5.4e-10 m/s). Only the restart follows drifts: made by every solve, a stride lands
+some steps sooner and sends others past the answer the path's end was next to (on recorded steps, a
+trembling ``stack-40`` and a loop on a pile went from the path's Newton tries, under 0.1 s, to Lemke's walk,
+1.6 to 2.8 s).
 
 **Where it may still fail.** A large problem (a 20-row pyramid has 800 points) on which every Newton try
 cycles, the proximal point method wanders, the forced slides probed do not land, and the proximal point method
