@@ -16,9 +16,8 @@ One step of one world:
 
 Steps 1, 2, 4 and 5 are compiled kernels; the solve's linear algebra (the central path's iterations, each
 mode system's band LU and its proximal steps: ``stackx.models.planar.banded``) is compiled too, its choice of
-tries numpy. The solver's only knobs say which problem
-it sets itself (``speculative``) and how overlap is undone (``correction``); the solve has no knob: it is
-exact or it fails.
+tries numpy. The solver's only knobs say which problem it sets itself (``speculative``) and how overlap is
+undone (``correction``); the solve has no knob: it is exact or it fails.
 """
 
 from __future__ import annotations
