@@ -20,6 +20,18 @@ def rows(rng: np.random.Generator, count: int, dof: int) -> tuple[np.ndarray, np
     return values, columns
 
 
+def factored(mass: np.ndarray, g: np.ndarray, j_rows: np.ndarray, j_columns: np.ndarray,
+             proximal: float) -> tuple[np.ndarray, int, np.ndarray, np.ndarray]:
+    """The band LU of the mode system ``diag(mass) + sum_r g_r j_r^T / proximal`` (``banded``): its factors,
+    half width, pivots and order."""
+    where, half = banded.ordering(j_columns, mass.shape[0])
+    ab = banded.band(mass, where, half)
+    banded.add(ab, half, where, np.full(j_rows.shape[0], 1.0 / proximal), g, j_rows, j_columns)
+    pivots = np.zeros(mass.shape[0], np.int64)
+    assert banded.factor(ab, half, pivots)
+    return ab, half, pivots, where
+
+
 @pytest.mark.parametrize("on", [False, True])
 def test_proximal_steps_reach_the_answer_of_the_mode_system(on: bool) -> None:
     # the fixed point of the proximal steps solves J_F v = base with M (v - v0) = G q, written densely; three rows
@@ -40,11 +52,7 @@ def test_proximal_steps_reach_the_answer_of_the_mode_system(on: bool) -> None:
         np.add.at(dense_g[r], j_columns[r], g[r])
     dense_j, dense_g = dense_j[:, :dof], dense_g[:, :dof]
     proximal = 1e-2
-    where, half = banded.ordering(j_columns, dof)
-    ab = banded.band(mass, where, half)
-    banded.add(ab, half, where, np.full(free, 1.0 / proximal), g, j_rows, j_columns)
-    pivots = np.zeros(dof, np.int64)
-    assert banded.factor(ab, half, pivots)
+    ab, half, pivots, where = factored(mass, g, j_rows, j_columns, proximal)
     with compiled(on):
         q = mode_rows.proximal_steps(ab, half, pivots, where, g, j_rows, j_columns, base, mass * v0, proximal,
                                      np.zeros(free), 2000, 1e-14, np.ones(free, np.bool_), 0.01)
@@ -95,11 +103,7 @@ def test_a_system_without_an_answer_drifts_until_a_held_point_is_emptied(on: boo
     v0 = rng.standard_normal(dof)
     base = np.array([0.1, 0.1 + 1e-5])
     proximal = 1e-2
-    where, half = banded.ordering(j_columns, dof)
-    ab = banded.band(mass, where, half)
-    banded.add(ab, half, where, np.full(2, 1.0 / proximal), g, j_rows, j_columns)
-    pivots = np.zeros(dof, np.int64)
-    assert banded.factor(ab, half, pivots)
+    ab, half, pivots, where = factored(mass, g, j_rows, j_columns, proximal)
     start = np.array([1.0, 1.0])
     normal = np.ones(2, np.bool_)
     with compiled(on):

@@ -59,7 +59,6 @@ def ordering(columns: np.ndarray, dof: int) -> tuple[np.ndarray, int]:
                 degree[c] += 1
     placed = np.zeros(dof, np.bool_)
     order = np.empty(dof, np.int64)
-    queue = np.empty(dof, np.int64)
     done = 0
     while done < dof:
         root = -1
@@ -96,11 +95,9 @@ def ordering(columns: np.ndarray, dof: int) -> tuple[np.ndarray, int]:
                     placed[order[a]] = False
             else:
                 done = end
-    for a in range(dof):
-        queue[a] = order[dof - 1 - a]
     where = np.empty(dof + 1, np.int64)
-    for a in range(dof):
-        where[queue[a]] = a
+    for a in range(dof):  # the walk's order reversed
+        where[order[dof - 1 - a]] = a
     where[dof] = dof
     half = 0
     for r in range(columns.shape[0]):

@@ -68,16 +68,16 @@ QN, QT, S, BP, BM, FP, FM = 0, 1, 2, 3, 4, 5, 6
 
 
 def central_path(values: np.ndarray, columns: np.ndarray, k: np.ndarray, cone: np.ndarray, v0: np.ndarray,
-                 inv: np.ndarray, fixed_u: np.ndarray, target: np.ndarray,
-                 start: np.ndarray | None = None) -> tuple[np.ndarray, int, int]:
+                 inv: np.ndarray, fixed_u: np.ndarray, target: np.ndarray, start: np.ndarray | None = None,
+                 order: tuple[np.ndarray, int] | None = None) -> tuple[np.ndarray, int, int]:
     """Follow the central path of a step problem given as ``reference.ModeSystem`` holds it (``J`` row by row
     over the movable degrees of freedom, effective masses ``k``, friction ``cone``, free velocities ``v0``,
     inverse masses ``inv``, the rows' velocities of immovable bodies ``fixed_u`` and targets), from every pair
     at 1 or, given ``start`` (scaled impulses, e.g. a warm start), from those impulses moved ``INSIDE`` into the
     interior with the gaps and slips they give. Returns the scaled impulses reached (``q``, normals then
     tangents), the iterations and whether it ended near the path's end (1) or jammed early (0). Each
-    iteration's system is a band in the order of ``banded.ordering``, found once here."""
-    where, half = ordering(columns, v0.shape[0])
+    iteration's system is a band in the order ``order`` (``banded.ordering``'s; found here when None)."""
+    where, half = ordering(columns, v0.shape[0]) if order is None else order
     begun = start is not None
     return walk(values, columns, k, cone, v0, inv, fixed_u, target, start if begun else np.zeros(2 * cone.shape[0]),
                 begun, where, half)
@@ -131,6 +131,7 @@ def walk(values: np.ndarray, columns: np.ndarray, k: np.ndarray, cone: np.ndarra
     pivots = np.zeros(dof, np.int64)
     rest = np.empty((4, m))  # the equations' residuals: normal gap, slip, the two bounds' slacks
     r_n, r_t, r_p, r_m = rest[0], rest[1], rest[2], rest[3]
+    no = np.zeros((7, m))  # the predictor's own direction has no second-order terms
     for iteration in range(1, ITERATIONS + 1):
         vv = np.append(v, 0.0)
         un = gathered(jn, cn, vv)
@@ -169,7 +170,6 @@ def walk(values: np.ndarray, columns: np.ndarray, k: np.ndarray, cone: np.ndarra
         add(ab, half, where, kt * atn, jt, jn, cn)
         if not factor(ab, half, pivots):
             break  # a system made singular by the path's far end (products at rounding level)
-        no = np.zeros((7, m))
         dv, predictor = direction(0.0, False, no, state, rest, r_dyn, cone, rough, an, d, e, atn, att, jn, cn, jt,
                                   ct, kn, kt, ab, half, pivots, where)
         a = reach(state, predictor)

@@ -298,6 +298,8 @@ def solve(problem: ContactProblem, pn: np.ndarray | None = None, pt: np.ndarray 
         raise ReferenceFailure(f"contact point {bad} joins two immovable bodies "
                                f"({problem.body_a[bad]}, {problem.body_b[bad]}): no impulse can act on it")
     newton = ModeSystem(problem, kn, kt, PROXIMAL, drift)
+    # every mode system of the problem is factored in the band of the same order: found once
+    mode_system = partial(ModeSystem, problem, kn, kt, drift=drift, order=(newton.where, newton.half))
     args = (problem.body_a, problem.body_b, problem.normal, problem.ra, problem.rb, problem.friction,
             problem.target, problem.inv_mass, problem.inv_inertia, kn, kt)
     swept = 0
@@ -420,7 +422,7 @@ def solve(problem: ContactProblem, pn: np.ndarray | None = None, pt: np.ndarray 
         up, and grows tenfold after one whose problem was not solved, which is then left. Once the
         contract's residual is below ``POLISH``, ``rounds`` full Newton rounds try to land on the answer of
         the modes read there, again each time the residual has fallen tenfold or the modes changed since."""
-        system = ModeSystem(problem, kn, kt, start, drift)
+        system = mode_system(start)
         best = polished = reached = system.merit(q)  # reached: the contract's residual at q
         tried = None  # the modes the last full rounds started from
         spent = 0  # Newton rounds of the regularized problems
@@ -478,7 +480,7 @@ def solve(problem: ContactProblem, pn: np.ndarray | None = None, pt: np.ndarray 
         while budget > 0:
             bodies = np.setdiff1d(np.concatenate([problem.body_a[bad], problem.body_b[bad]]), [GROUND])
             around = np.isin(problem.body_a, bodies) | np.isin(problem.body_b, bodies)
-            newton = ModeSystem(problem, kn, kt, PROXIMAL, drift)
+            newton = mode_system(PROXIMAL)
             gap, qn, qt = newton.gap(q), q[:m], q[m:]
             stick = (qn > gap[:m]) & (np.abs(qt - gap[m:]) <= newton.cone * qn)
             slip = gap[m:]
@@ -487,7 +489,7 @@ def solve(problem: ContactProblem, pn: np.ndarray | None = None, pt: np.ndarray 
             kept = None
             for i in points[:budget]:
                 budget -= 1
-                newton = ModeSystem(problem, kn, kt, PROXIMAL, drift)
+                newton = mode_system(PROXIMAL)
                 newton.forced = {**forced, i: -float(np.sign(slip[i]))}
                 found, reached = full(q, 2 * rounds)
                 if found is not None:
@@ -542,7 +544,8 @@ def solve(problem: ContactProblem, pn: np.ndarray | None = None, pt: np.ndarray 
                 with np.errstate(over="ignore", invalid="ignore", divide="ignore"):  # far end's products underflow
                     path, _, ended_on_path = central_path(newton.values, newton.columns, newton.k,
                                                           share * newton.cone, newton.v0, newton.inv,
-                                                          newton.fixed_u, newton.target, path)
+                                                          newton.fixed_u, newton.target, path,
+                                                          (newton.where, newton.half))
             for run in (partial(attempt, path, rounds, 0), partial(full, path, 2 * rounds)) if ended_on_path else ():
                 newton.modes = None
                 found, _ = run()
@@ -580,7 +583,7 @@ def solve(problem: ContactProblem, pn: np.ndarray | None = None, pt: np.ndarray 
     best, probed = np.inf, False
     for number, (proximal, run) in numbered:
         if proximal != newton.proximal or newton.forced:
-            newton = ModeSystem(problem, kn, kt, proximal, drift)
+            newton = mode_system(proximal)
         newton.modes = None
         found, reached = run()
         if found is None and not probed and closest[0] < PROBE_NEAR:
@@ -630,7 +633,7 @@ class ModeSystem:
     """
 
     def __init__(self, problem: ContactProblem, kn: np.ndarray, kt: np.ndarray, proximal: float = PROXIMAL,
-                 drift: float = 0.0) -> None:
+                 drift: float = 0.0, order: tuple[np.ndarray, int] | None = None) -> None:
         self.m = m = problem.points
         inv = inverse_masses(problem)
         free_dof = inv > 0.0
@@ -639,7 +642,8 @@ class ModeSystem:
         where[:-1][free_dof] = np.arange(dof)
         values, columns = jacobian_rows(problem)
         self.values, self.columns = values, where[columns]
-        self.where, self.half = banded.ordering(self.columns, dof)  # the band every mode system of it is factored in
+        # the band every mode system of the problem is factored in (``order``: one found already for it)
+        self.where, self.half = banded.ordering(self.columns, dof) if order is None else order
         self.inv = inv[free_dof]
         v0 = problem.velocity.reshape(-1)
         self.v0 = v0[free_dof].copy()
