@@ -1,12 +1,11 @@
 """``python -m benchmarks.planar_pivoting``: what Lemke's walk (``stackx.models.planar.pivoting``) costs on
-recorded step problems, and whether the reference solve lands when it begins with that try.
+recorded step problems, and what of the reference solve lands them.
 
 Per problem: its points; the walk (on the problem's own LCP up to ``pivoting.EXACT_POINTS`` points, else on
 the regularized one): pivots, LU factorizations, CPU ms, and the contract's residual of its answer (m/s);
-then ``reference.solve`` from the recorded warm start, in the default order of its tries or begun at try
-``--begin`` (numbered as ``Solution.attempt`` reports them; on a problem over ``reference.LEMKE_EARLY`` points
-with a nonzero warm start Lemke's is the 13th, the last; a miss is then made again in the default order):
-the try that landed, its residual, and wall s. Problems: every step in ``tests/planar/data`` (``*.json``, ``*.npz``), or with
+then ``reference.solve`` from the recorded warm start: the stage that landed (``Solution.attempt``: 0 the
+central path, 1 the warm start's Newton rounds, 2 the proximal point method, 3 Lemke's pivoting), its residual,
+and wall s. Problems: every step in ``tests/planar/data`` (``*.json``, ``*.npz``), or with
 ``--pickle FILE`` (repeatable) the steps of a list of records, each a dict with ``problem`` (the
 ``ContactProblem`` fields), ``pn``, ``pt`` and ``step`` (``--steps`` picks some). Measured on 2 shared cores: a
 20-row pyramid's walk (800 to 925 points, 3,200 to 3,700 unknowns) takes 3,300 to 9,500 pivots, about 0.4 ms
@@ -58,7 +57,7 @@ def pickled(path: str, steps: list[int] | None) -> list[tuple[str, ContactProble
     return found
 
 
-def measure(name: str, problem: ContactProblem, pn: np.ndarray, pt: np.ndarray, begin: int) -> str:
+def measure(name: str, problem: ContactProblem, pn: np.ndarray, pt: np.ndarray) -> str:
     """One row of the table (see the module text)."""
     exact = problem.points <= pivoting.EXACT_POINTS
     lcp = pivoting.contact_lcp(problem, 0.0 if exact else pivoting.REGULARIZATION)
@@ -72,7 +71,7 @@ def measure(name: str, problem: ContactProblem, pn: np.ndarray, pt: np.ndarray, 
         walked = f"{'ray':>6} {'':5} {1e3 * (time.process_time() - start):8.0f} {'':9}"
     start = time.perf_counter()
     try:
-        found = reference.solve(problem, pn, pt, begin=begin)
+        found = reference.solve(problem, pn, pt)
         solved = f"{found.attempt:5d} {found.residual:9.1e}"
     except reference.ReferenceFailure as failure:
         solved = f"{'miss':>5} {failure.best:9.1e}"
@@ -83,13 +82,12 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--pickle", action="append", default=[], help="a pickle of recorded step problems")
     parser.add_argument("--steps", type=int, nargs="+", default=None, help="the recorded steps to measure")
-    parser.add_argument("--begin", type=int, default=1, help="the try the reference solve begins with")
     args = parser.parse_args()
     problems = [row for path in args.pickle for row in pickled(path, args.steps)] if args.pickle else recorded()
     print(f"{'problem':32} {'points':>6} {'pivots':>6} {'LUs':>5} {'walk ms':>8} {'walk res':>9} "
-          f"{'try':>5} {'residual':>9} {'solve s':>7}")
+          f"{'stage':>5} {'residual':>9} {'solve s':>7}")
     for name, problem, pn, pt in problems:
-        print(measure(name, problem, pn, pt, args.begin), flush=True)
+        print(measure(name, problem, pn, pt), flush=True)
 
 
 if __name__ == "__main__":

@@ -27,7 +27,7 @@ wall time and the step log's share of it, then per run its steps and, per step, 
 share of the batch's monitors), the check of its own answer (``own us``: velocities and, for a solver
 that exposes them, impulses; ``stackx.models.planar.error.check_own``), and the steps it could not solve with the
 seconds their solves took (``failed s``); then the solved steps by what landed them (``Solution.attempt``: the
-central path, a warm start's Newton rounds or the first try, each later try of the fallback). Measured on 2 shared cores with
+central path, a warm start's Newton rounds, the fallback's proximal point method or Lemke's pivoting). Measured on 2 shared cores with
 ``--bench configs/planar/pyramid-10.yaml --steps 30`` (21 runs): 256 s wall, 98% of it the step log, nearly
 all of that the reference solves (from 0.9 ms a step on planar-exact's path to 2.3 s on planar-xpbd's at 4
 substeps); the own-answer check 0.05 to 0.4 ms a step.
@@ -53,6 +53,7 @@ from stackx.bench.criteria import Criteria
 from stackx.kernel import compiled
 from stackx.models.planar import error as planar_log
 from stackx.models.planar import reference, step_problem
+from stackx.models.planar.reference import LEMKE, PATH, WALK, WARM
 from stackx.models.planar.error import StepLog
 from stackx.run.runner import run_experiment
 
@@ -157,7 +158,7 @@ def bench_costs(path: str, steps: int | None) -> tuple[float, dict[str, dict[str
     """``stackx bench path`` (every solver, one process, the report written to a temporary folder), each run
     cut to ``steps`` (None: the config's): its wall time (s) and per run (by case and run name) the steps
     logged, the steps its reference did not solve and the seconds its reference solves (those failed among
-    them), its step log and its own-answer checks took; and the solved steps counted by the try that landed
+    them), its step log and its own-answer checks took; and the solved steps counted by the stage that landed
     them (``Solution.attempt``)."""
     from stackx.bench.command import bench
 
@@ -252,9 +253,9 @@ def bench_main(path: str, steps: int | None) -> None:
         n = max(r["steps"], 1)
         print(f"{name:<56}{r['steps']:>7.0f}{1e3 * r['reference'] / n:>9.2f}{1e3 * r['log'] / n:>9.2f}"
               f"{1e6 * r['own'] / n:>9.0f}{r['unsolved']:>9.0f}{r['failed']:>9.1f}")
-    later = ", ".join(f"{n} by try {a}" for a, n in landed.items() if a > 1) or "none"
-    print(f"solved steps by what landed them: {landed.get(0, 0)} the central path, {landed.get(1, 0)} a warm "
-          f"start's Newton rounds or the first try, later tries: {later} (reference.solve numbers them)")
+    print(f"solved steps by what landed them (``Solution.attempt``): {landed.get(PATH, 0)} the central path, "
+          f"{landed.get(WARM, 0)} a warm start's Newton rounds, {landed.get(WALK, 0)} the proximal point method, "
+          f"{landed.get(LEMKE, 0)} Lemke's pivoting")
 
 
 def line(name: str, m: dict[str, float]) -> str:

@@ -118,28 +118,8 @@ def test_a_warm_start_at_the_answer_needs_no_path(monkeypatch: pytest.MonkeyPatc
 
     monkeypatch.setattr(reference, "central_path", refused)
     again = reference.solve(p, sol.pn, sol.pt)
-    assert again.attempt == 1 and again.rounds <= reference.WARM_ROUNDS
+    assert again.attempt == reference.WARM and again.rounds <= reference.WARM_ROUNDS
     assert residual(p, again.pn, again.pt) < 1e-10
-
-
-def test_a_landing_from_the_path_leaves_the_row_s_memory_of_its_tries(monkeypatch: pytest.MonkeyPatch) -> None:
-    from stackx.models.planar import step_problem
-
-    state = pyramid(3)
-    memory = ReferenceStep(1, state.bodies)
-    landings = iter([4, 0, 0])
-    begun = []
-
-    def solve(problem, pn, pt, quick=False, begin=1):  # type: ignore[no-untyped-def]
-        begun.append(begin)
-        return reference.Solution(pn, pt, velocities_after(problem, pn, pt), 0.0, 0, 0, next(landings))
-
-    monkeypatch.setattr(step_problem, "solve", solve)
-    for _ in range(3):
-        memory.solve(0, state.x[0], state.y[0], state.angle[0], state.vx[0], state.vy[0], state.w[0],
-                     state.inv_mass[0], state.inv_inertia[0], state.hx[0], state.hy[0], state.friction[0], -9.8,
-                     1 / 60, 0.0)
-    assert begun == [1, 4, 4]  # the path landed the second step: the third still begins its tries at the fourth
 
 
 def _contact_conditions(p, pn, pt):  # type: ignore[no-untyped-def]
@@ -157,8 +137,8 @@ def _contact_conditions(p, pn, pt):  # type: ignore[no-untyped-def]
 def test_a_shaking_pile_whose_paths_fold_ends_its_path_where_friction_is_raised_in_stages() -> None:
     # a 20-row pyramid shaking under planar-xpbd at 16 substeps (924 points): the central path folds both from
     # its own start and from the warm start; without friction the path ends, and raised from there in stages it
-    # ends on this step too (which try then lands it depends on the last bits of the path's end: the cheap
-    # Newton tries from there, or the first try from the warm start, on different processors)
+    # ends on this step too. What then lands it depends on the last bits of the path's end: its Newton rounds,
+    # or (where they stall at 1.3e-10 m/s) the fallback's proximal point method begun where they came closest
     p, pn, pt = _recorded_npz("xpbd_pyramid20_fold_step")
     assert paths_ended(p, pn, pt) == (0, 0, 1)
     kn, kt = effective_masses(p)
@@ -171,7 +151,7 @@ def test_a_shaking_pile_whose_paths_fold_ends_its_path_where_friction_is_raised_
     m = p.points
     assert residual(p, np.maximum(staged[:m], 0.0) * kn, staged[m:] * kt) < 1e-4
     sol = reference.solve(p, pn, pt)
-    assert sol.attempt <= 1
+    assert sol.attempt in (reference.PATH, reference.WALK)
     assert residual(p, sol.pn, sol.pt) < 1e-10
     assert _contact_conditions(p, sol.pn, sol.pt) < 1e-9
     assert _contact_conditions(p, pn, pt) > 1e-3  # the warm start is far from it

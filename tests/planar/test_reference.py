@@ -153,20 +153,17 @@ def _tall_stack(count: int) -> ContactProblem:
     return step_problem(s, 0, -9.8, 1 / 60, 0.0)
 
 
-def test_a_tall_stack_is_held_still_by_the_first_try(monkeypatch: pytest.MonkeyPatch) -> None:
+def test_a_tall_stack_is_held_still_by_the_path_and_by_the_fallback_alone() -> None:
     # every point touches (target 0) and the stack starts at rest, so the exact answer holds every box still
     p = _tall_stack(40)
     assert p.points == 80
-    sol = solve(p, interior=False)
-    assert residual(p, sol.pn, sol.pt) < 1e-10
-    # each of the 40 faces may slip and turn by what the 1e-10 m/s residual lets it; a box's turn carries every
-    # box above it sideways by its lever, so the top moves up to ~40 * 40 / 2 * 2e-10 m/s
-    assert np.abs(sol.velocity).max() < 1e-6
-    assert sol.attempt == 1
-    # its boxes tilting together give the Delassus matrix eigenvalues far below a proximal weight of 1e-3,
-    # where each proximal step removes almost nothing of the error along them: the first try then stalls
-    monkeypatch.setattr(reference, "PROXIMAL", 1e-3)
-    assert solve(p, interior=False).attempt > 1
+    for interior, landing in ((True, reference.PATH), (False, reference.WALK)):
+        sol = solve(p, interior=interior)
+        assert residual(p, sol.pn, sol.pt) < 1e-10
+        # each of the 40 faces may slip and turn by what the 1e-10 m/s residual lets it; a box's turn carries
+        # every box above it sideways by its lever, so the top moves up to ~40 * 40 / 2 * 2e-10 m/s
+        assert np.abs(sol.velocity).max() < 1e-6
+        assert sol.attempt == landing
 
 
 def test_a_solve_that_does_not_get_there_says_so(monkeypatch: pytest.MonkeyPatch) -> None:
@@ -175,8 +172,8 @@ def test_a_solve_that_does_not_get_there_says_so(monkeypatch: pytest.MonkeyPatch
     p = step_problem(pyramid(6, jitter=0.05, seed=1), 0, -9.8, 1 / 60, 0.02)
     monkeypatch.setattr(pivoting, "starts", lambda problem: iter(()))  # pivoting would solve it
     monkeypatch.setattr(reference, "SETTLE_ROUNDS", 0)  # and so would the proximal point method
-    with pytest.raises(ReferenceFailure, match=r"not solved to 1e-10 m/s in 11 tries \(1 damped or 2 full Newton "
-                                               r"rounds each, Lemke pivoting\) and \d+ sweeps: best residual"):
+    with pytest.raises(ReferenceFailure, match=r"not solved to 1e-10 m/s by the proximal point method or Lemke's "
+                                               r"pivoting \(\d+ sweeps\): best residual"):
         solve(p, sweeps=0, rounds=1, interior=False)
     stuck = ContactProblem(np.zeros(1), np.zeros(1), np.zeros((1, 3)), np.array([-1]), np.array([0]),
                            np.array([[0.0, 1.0]]), np.zeros((1, 2)), np.zeros((1, 2)), np.ones(1), np.ones(1))
@@ -218,20 +215,24 @@ def _recorded_steps() -> list[tuple[ContactProblem, np.ndarray, np.ndarray]]:
     return _recorded("stack_steps")
 
 
-@pytest.mark.parametrize("index", range(4))
-def test_a_face_that_cannot_stick_at_both_points_is_solved(index: int) -> None:
+def test_faces_whose_points_have_different_targets_are_solved() -> None:
     # two points of a face with different targets (e.g. one touching, one closing a gap) slip at different rates
-    # when the face turns, so both cannot stick: the answer has one point sliding at its friction bound
-    p, pn, pt = _recorded_steps()[index]
-    faces = {}
-    for k in range(p.points):
-        faces.setdefault((p.body_a[k], p.body_b[k]), []).append(p.target[k])
-    assert any(len(t) == 2 and t[0] != t[1] for t in faces.values())
-    sol = solve(p, pn, pt, interior=False)
-    assert residual(p, sol.pn, sol.pt) < 1e-10
-    assert np.array_equal(sol.velocity, velocities_after(p, sol.pn, sol.pt))
-    slides = np.isclose(np.abs(sol.pt), p.friction * sol.pn, rtol=0, atol=1e-12) & (sol.pn > 1e-9)
-    assert slides.any()
+    # when the face turns; where the difference is above the tolerance both cannot stick, and the answer has one
+    # point sliding at its friction bound (two of these four steps)
+    sliding = 0
+    for p, pn, pt in _recorded_steps():
+        faces: dict[tuple[int, int], list[float]] = {}
+        for k in range(p.points):
+            faces.setdefault((p.body_a[k], p.body_b[k]), []).append(p.target[k])
+        assert any(len(t) == 2 and t[0] != t[1] for t in faces.values())
+        sol = solve(p, pn, pt)
+        assert residual(p, sol.pn, sol.pt) < 1e-10
+        assert np.array_equal(sol.velocity, velocities_after(p, sol.pn, sol.pt))
+        slides = np.isclose(np.abs(sol.pt), p.friction * sol.pn, rtol=0, atol=1e-12) & (sol.pn > 1e-9)
+        sliding += bool(slides.any())
+        alone = solve(p, pn, pt, interior=False)  # the fallback alone (Lemke's pivoting, on a problem this small)
+        assert residual(p, alone.pn, alone.pt) < 1e-10 and alone.attempt == reference.LEMKE
+    assert sliding >= 2
 
 
 def test_which_point_of_a_face_slides_is_tried_not_guessed(monkeypatch: pytest.MonkeyPatch) -> None:
@@ -275,77 +276,50 @@ def test_a_regularized_round_is_its_modes_exact_answer() -> None:
         assert not out[:m][~held].any()
 
 
-def test_a_pile_every_newton_try_cycles_on_is_solved_by_proximal_points() -> None:
+def test_a_pile_of_hair_gaps_is_solved_by_the_path_and_by_the_proximal_point_method() -> None:
     # step 5 of pyramid-10 under planar-xpbd at 16 substeps: its boxes sit a hair tilted, so a third of the faces
-    # have a touching point and one closing a gap. Newton rounds from swept impulses leap to 1e3 m/s (the modes
-    # read there make systems with no sensible answer), and every try but the proximal point method fails:
-    # before it, the solve gave up at 6.6e-6 m/s. Tries 1-3 are the damped and full Newton rounds.
+    # have a touching point and one closing a gap a few micrometres wide. Newton rounds from swept impulses
+    # leapt to 1e3 m/s there (the modes read make systems with no sensible answer); the central path lands it,
+    # and so does the fallback's proximal point method, which comes first on a problem this large
     (p, pn, pt), = _recorded("xpbd_pyramid_step")
-    assert p.points == 214
+    assert p.points == 214 > reference.LEMKE_EARLY
+    assert solve(p, pn, pt).attempt == reference.PATH
     sol = solve(p, pn, pt, interior=False)
     assert residual(p, sol.pn, sol.pt) < 1e-10
-    assert sol.attempt == 4
-    # begun at the try that landed it (as a run does after a step that try landed): the same answer
-    again = solve(p, pn, pt, begin=4, interior=False)
-    assert again.attempt == 4 and np.array_equal(again.pn, sol.pn) and np.array_equal(again.pt, sol.pt)
+    assert sol.attempt == reference.WALK
 
 
-def test_a_quick_solve_makes_the_first_two_tries_of_its_order_with_a_short_walk(
-        monkeypatch: pytest.MonkeyPatch) -> None:
-    from stackx.models.planar import reference
+def test_a_quick_solve_is_the_walk_alone_cut_short(monkeypatch: pytest.MonkeyPatch) -> None:
+    from stackx.models.planar import pivoting
 
     (p, pn, pt), = _recorded("xpbd_pyramid_step")
-    with pytest.raises(ReferenceFailure, match="in 2 tries"):
-        solve(p, pn, pt, quick=True, interior=False)  # the two cheap tries: this pile needs the walk
-    assert solve(p, pn, pt, quick=True, begin=4, interior=False).attempt == 4
+    assert solve(p, pn, pt, quick=True, interior=False).attempt == reference.WALK
+
+    def refused(problem: ContactProblem) -> None:
+        raise AssertionError("a quick solve pivoted")
+
+    monkeypatch.setattr(pivoting, "starts", refused)
     monkeypatch.setattr(reference, "SETTLE_QUICK", 5)
-    with pytest.raises(ReferenceFailure, match="in 2 tries"):
-        solve(p, pn, pt, quick=True, begin=4, interior=False)
+    with pytest.raises(ReferenceFailure, match=r"by the proximal point method \("):
+        solve(p, pn, pt, quick=True, interior=False)
 
 
-def test_what_makes_the_xpbd_pile_hard_is_its_points_closing_a_hair_gap() -> None:
-    # the same step: its 5 cm speculative margin brings in the side faces of neighbouring boxes (5 cm apart,
-    # target about -3 m/s) and, on faces where a box sits a hair tilted, a second point a few micrometres off
-    # (target above -0.01 m/s). Left out, the side faces change nothing; the hair gaps left out, the first try lands.
-    (p, pn, pt), = _recorded("xpbd_pyramid_step")
-    side, hair = p.target < -1.0, (p.target < 0.0) & (p.target > -0.01)
-    assert side.sum() >= 10 and hair.sum() >= 10 and (side | hair | (p.target == 0.0)).all()
-
-    def without(drop: np.ndarray) -> int:
-        keep = ~drop
-        sub = ContactProblem(p.inv_mass, p.inv_inertia, p.velocity, p.body_a[keep], p.body_b[keep], p.normal[keep],
-                             p.ra[keep], p.rb[keep], p.friction[keep], p.target[keep])
-        found = solve(sub, pn[keep], pt[keep], interior=False)
-        assert residual(sub, found.pn, found.pt) < 1e-10
-        return found.attempt
-
-    assert without(side) == 4
-    assert without(hair) == 1
-
-
-def test_a_loop_of_held_faces_whose_targets_disagree_by_a_hair_is_solved_by_a_forced_slide(
-        monkeypatch: pytest.MonkeyPatch) -> None:
+def test_a_loop_of_held_faces_whose_targets_disagree_by_a_hair_is_solved(monkeypatch: pytest.MonkeyPatch) -> None:
     # step 103 of pyramid-10 under planar-xpbd at 16 substeps: box 35 sits on 40 and 41, each resting on 45 on one
     # point that closes a hair gap (targets -7.5e-5 and -6.4e-5 m/s). Sticking, those faces make a closed loop
-    # whose targets disagree by a few 1e-10 m/s, so every try stalls just above the tolerance, the error shared
-    # out around the loop. The exact answer has a point of the loop sliding; probing the stall with one forced
-    # slide per point, those slipping most first, finds it (the hair point of 40 on 45, the second probed).
-    # Without probes, Lemke's walk (the last try) lands it.
-    from stackx.models.planar import pivoting, reference
+    # whose targets disagree by a few 1e-10 m/s; the exact answer has a point of the loop sliding. The path lands
+    # it; without the path, the proximal point method stalls just above the tolerance, the error shared out
+    # around the loop, and Lemke's pivoting lands it
+    from stackx.models.planar import pivoting
 
     (p, pn, pt), = _recorded("xpbd_pyramid_loop_step")
-    monkeypatch.setattr(reference, "PROBES", 0)
-    pivoted = solve(p, pn, pt, begin=4, interior=False)
-    assert residual(p, pivoted.pn, pivoted.pt) < 1e-10 and pivoted.attempt == 13
+    assert solve(p, pn, pt).attempt == reference.PATH
+    pivoted = solve(p, pn, pt, interior=False)
+    assert residual(p, pivoted.pn, pivoted.pt) < 1e-10 and pivoted.attempt == reference.LEMKE
     monkeypatch.setattr(pivoting, "starts", lambda problem: iter(()))
     with pytest.raises(ReferenceFailure) as stalled:
-        solve(p, pn, pt, begin=4, interior=False)
+        solve(p, pn, pt, interior=False)
     assert 1e-10 < stalled.value.best < 3e-10
-    monkeypatch.undo()
-    sol = solve(p, pn, pt, begin=4, interior=False)
-    assert residual(p, sol.pn, sol.pt) < 1e-10 and sol.attempt == 4
-    hair = int(np.flatnonzero((p.body_a == 40) & (p.body_b == 45) & (p.target < 0.0) & (p.target > -1e-4))[0])
-    assert abs(sol.pt[hair]) == pytest.approx(p.friction[hair] * sol.pn[hair], rel=1e-12) and sol.pn[hair] > 0.1
 
 
 def _solve_steps(reference: ReferenceStep, row: int, steps: int) -> None:
@@ -359,14 +333,14 @@ def _solve_steps(reference: ReferenceStep, row: int, steps: int) -> None:
             pass
 
 
-def test_after_three_failed_steps_in_a_row_a_row_makes_only_its_quick_tries(monkeypatch: pytest.MonkeyPatch) -> None:
+def test_after_three_failed_steps_in_a_row_a_row_s_solves_are_quick(monkeypatch: pytest.MonkeyPatch) -> None:
     from stackx.models.planar import step_problem as sp
 
     asked: list[bool] = []
     # the best residual each solve reaches: above the tolerance it fails; a near miss (5e-10) is not counted
     outcomes = iter([1e-3, 5e-10, 1e-3, 1e-3, 1e-3, 0.0, 1e-3])
 
-    def scripted(problem: ContactProblem, pn: np.ndarray, pt: np.ndarray, quick: bool = False, begin: int = 1):
+    def scripted(problem: ContactProblem, pn: np.ndarray, pt: np.ndarray, quick: bool = False):
         asked.append(quick)
         best = next(outcomes)
         if best > 1e-10:
@@ -381,66 +355,28 @@ def test_after_three_failed_steps_in_a_row_a_row_makes_only_its_quick_tries(monk
     assert asked == [False, False, False, False, True, True, False]
 
 
-def test_a_row_begins_each_solve_with_the_try_that_landed_its_last_step(monkeypatch: pytest.MonkeyPatch) -> None:
-    from stackx.models.planar import step_problem as sp
-
-    begun: list[int] = []
-    landing = iter([4, None, 2, 3])  # the try each step lands on; None: every try fails
-
-    def scripted(problem: ContactProblem, pn: np.ndarray, pt: np.ndarray, quick: bool = False, begin: int = 1):
-        begun.append(begin)
-        number = next(landing)
-        if number is None:
-            raise ReferenceFailure("scripted", 1e-3)
-        found = solve(problem, pn, pt)
-        found.attempt = number
-        return found
-
-    monkeypatch.setattr(sp, "solve", scripted)
-    reference = ReferenceStep(2, pyramid(3).bodies)
-    _solve_steps(reference, 1, 4)
-    # a failed step leaves the memory as it was; the other row's is its own
-    assert begun == [1, 4, 4, 2]
-    assert reference.landed.tolist() == [1, 3]
-
-
-def test_a_solve_begun_at_another_try_that_misses_is_made_again_in_the_default_order() -> None:
-    # step 345 of a row of 20 leaning dominoes under planar-exact, with the impulses it started from: begun at the
-    # fifth try (the one that landed the step before), every try missed, at 1.3e-10 m/s; in the default order
-    # the fourth lands
+def test_the_fallback_pivots_first_on_a_small_problem() -> None:
+    # step 345 of a row of 20 leaning dominoes under planar-exact (58 points), with the impulses it started from:
+    # on a problem this small Lemke's walk costs milliseconds, so the fallback makes it before the walk
     (p, pn, pt), = _recorded("domino_step")
-    sol = solve(p, pn, pt, begin=5, interior=False)
-    assert residual(p, sol.pn, sol.pt) < 1e-10
-    assert sol.attempt == solve(p, pn, pt, interior=False).attempt == 4
-    with pytest.raises(ReferenceFailure):  # a quick solve has no second order
-        solve(p, pn, pt, begin=5, quick=True, interior=False)
+    assert p.points <= reference.LEMKE_EARLY
+    sol = solve(p, pn, pt, interior=False)
+    assert residual(p, sol.pn, sol.pt) < 1e-10 and sol.attempt == reference.LEMKE
 
 
-def test_a_solve_whose_tries_all_missed_by_a_hair_makes_them_again_from_the_closest_answer(
-        monkeypatch: pytest.MonkeyPatch) -> None:
-    # step 279 of pyramid-10 under planar-xpbd at 4 substeps, as the bench set it (222 points, the row's memory
-    # beginning with the fourth try, which then made them again in the default order, as here): every try
-    # misses, the closest by 1.8e-9 m/s; from that answer, their Newton rounds following the drift of a mode
-    # system without an answer, the tries land. The solve's calls of itself are recorded: the tries are made
-    # once more, from the closest answer; without the drift followed they miss again (5.4e-10 m/s)
+def test_the_fallback_s_newton_rounds_follow_a_drift(monkeypatch: pytest.MonkeyPatch) -> None:
+    # step 279 of pyramid-10 under planar-xpbd at 4 substeps, as the bench set it (222 points): no path lands it,
+    # and the proximal point method's Newton rounds meet mode systems without an answer (held points closing a
+    # loop whose targets disagree), whose proximal steps settle into a steady drift; followed until a held point
+    # is emptied, the rounds land. Without the drift followed, nothing lands (1.8e-9 m/s)
     from tests.planar.test_pivoting import _recorded_npz
 
-    p, pn, pt = _recorded_npz("xpbd_pyramid10_restart_step")
-    calls: list[dict] = []
-    inner = reference.solve
-
-    def recorded(problem: ContactProblem, pn: np.ndarray, pt: np.ndarray, *args: object, **kwargs: object) -> object:
-        calls.append({"start": residual(problem, pn, pt), **kwargs})
-        return inner(problem, pn, pt, *args, **kwargs)
-
-    monkeypatch.setattr(reference, "solve", recorded)
-    sol = reference.solve(p, pn, pt, interior=False)
-    assert residual(p, sol.pn, sol.pt) < 1e-10
+    p, pn, pt = _recorded_npz("xpbd_pyramid10_drift_step")
+    sol = reference.solve(p, pn, pt)
+    assert residual(p, sol.pn, sol.pt) < 1e-10 and sol.attempt == reference.WALK
     assert np.array_equal(sol.velocity, velocities_after(p, sol.pn, sol.pt))
-    _, again = calls
-    assert not again["restart"] and not again["interior"]  # made once, from where every try came closest
-    assert reference.TOLERANCE < again["start"] < reference.RESTART
-    assert again["drift"] == reference.DRIFT > 0.0
+    assert reference.DRIFT > 0.0
     monkeypatch.setattr(reference, "DRIFT", 0.0)
-    with pytest.raises(ReferenceFailure):
-        inner(p, pn, pt, interior=False)
+    with pytest.raises(ReferenceFailure) as missed:
+        reference.solve(p, pn, pt)
+    assert 1e-10 < missed.value.best < 1e-8

@@ -78,9 +78,8 @@ WHY = _siconos_ready()
 needs_siconos = pytest.mark.skipif(WHY is not None, reason=WHY or "")
 
 # domino_step: step 345 of a row of 20 dominoes (0.2 x 2 m, 1 m apart, mu 0.6, the first tipped 15 degrees)
-# under planar-exact, with the impulses it started from; in that run the reference, beginning with the try that
-# landed the step before (the fifth), missed it at 1.3e-10 m/s, while in its default order it lands at 9.9e-11
-# domino_pgs_step and stack40_ngs_step: steps that only Lemke's walk lands (test_pivoting)
+# under planar-exact, with the impulses it started from
+# domino_pgs_step and stack40_ngs_step: steps whose fallback needs Lemke's walk (test_pivoting)
 RECORDED = ("landing_step", "stack_steps", "trembling_stack_step", "xpbd_pyramid_step", "domino_step",
             "domino_pgs_step", "stack40_ngs_step")
 # rows of dominoes whose steps have two answers: velocities apart by about 1e-6 m/s (domino_step) and 2e-2 m/s

@@ -1,145 +1,63 @@
-"""The planar reference solve: one step's contact problem (``problem.ContactProblem``) solved to a residual
-below 1e-10 m/s, or a ``ReferenceFailure`` saying how close it got.
+"""The planar reference solve: one step's contact problem (``problem.ContactProblem``) solved to a residual below
+1e-10 m/s, or a ``ReferenceFailure`` saying how close it got.
 
-**First: a warm start at the answer, then the central path.** A warm start already near the answer (a pile at
-rest) lands in ``WARM_ROUNDS`` Newton rounds of its own modes (below). Otherwise the solve follows the central
-path of the step's complementarity problem (``stackx.models.planar.interior``: a primal-dual interior point
-method, which chooses no mode until the end and so is not thrown by a pile's redundant contacts) and makes the
-two cheap Newton tries from its end; where that path folds (with friction the problem is not monotone), it
-follows the path again from the warm start, which more often lies on the answer's side of the fold. Where that
-folds too, it raises the friction in stages (``FRICTION_RAMP``): without friction the step is a convex problem,
-whose path ends from its own start; each stage's path begins where the last one's ended, so the path meets the
-friction a share at a time instead of all at once (on a shaking 20-row pyramid, ``planar-xpbd`` at 16 substeps,
-most steps whose two paths folded end there). A landing on any of these paths is ``Solution.attempt`` 0. Only
-where every path jams or its end does not land come the tries below, from the warm start; ``interior=False``
-makes them alone. Side by side on the same 30-step bench
-(``python3 -m benchmarks.planar_reference --bench configs/planar/pyramid-10.yaml --steps 30``, 21 runs), the
-step log took 26.1 s with the path (and the compiled row sums of ``mode_rows``) against 95.2 s without either.
+**The problem.** In 2D, Coulomb friction has one tangent, so a step's contact problem is a linear complementarity
+problem: each point's normal pushes only while the point is at its target speed, and its friction stays within
+``[-mu pn, mu pn]``, at the bound against the slip. Each point's mode (separating, sticking, sliding either way)
+fixes the answer by one linear system in the bodies' velocities (``ModeSystem``), so Newton rounds that read the
+modes off an answer near the exact one land on it (semismooth Newton on the min map the residual uses). Getting
+near is the hard part: a pile has more contact rows than its boxes have velocities, so redundant points may share
+a load in any way, and with friction the problem is not monotone.
 
-**The tries: projected Gauss-Seidel for the active set, then Newton on it (a primal-dual active-set method).**
-The solution is fixed by which mode each point is in: *separating* (no impulse), *sticking* (the point's
-relative velocity is zero), or *sliding* either way (friction at ``+mu pn`` or ``-mu pn``) with its normal
-held. Once the modes are known, the impulses solve one linear system: held normals and sticking tangents
-give rows of the Delassus matrix ``W = J M^-1 J^T`` (the point's relative velocity equals its target), a
-sliding tangent gives ``pt = +-mu pn``, a separating point gives ``pn = pt = 0``. So:
+**The method: the central path, then Newton rounds.** A warm start already at the answer (a pile at rest: the
+last step's answer is this one's) lands in ``WARM_ROUNDS`` rounds of its own modes. Otherwise the solve follows
+the central path of the step's complementarity problem (``stackx.models.planar.interior``: a primal-dual
+interior point method, which holds every complementary pair at one shrinking product and so chooses no mode
+until the end, where redundant points share their load evenly), and damped, then full Newton rounds land from
+its end (``Solution.attempt`` ``PATH``). Where that path folds (friction), it is followed again from the warm
+start, which more often lies on the answer's side of the fold, and then with the friction raised in stages
+(``FRICTION_RAMP``): without friction the step is a convex problem, whose path ends from its own start, and each
+stage's path begins where the last one's ended.
 
-1. sweeps of projected Gauss-Seidel (sequential impulses with accumulated clamping, in body velocities:
-   O(points) a sweep, compiled) from the caller's warm start, until the residual is below ``NEAR``;
-2. each Newton round reads the modes off the current answer with the same min / clip maps the residual uses
-   (held when ``pn / k_n > un - target``; sliding when ``pt - k_t ut`` leaves ``[-mu pn, mu pn]``), solves
-   that mode combination's linear system with a band LU (``ModeSystem``: in the bodies' velocities, 3
-   unknowns per box however many points touch), and takes the step if it lowers the residual, else half of
-   it, a quarter...; when no step does, more sweeps mend the modes. When the modes are right the answer is
-   the solution up to rounding (semismooth Newton on the min-map, which converges locally in a few rounds);
-3. tries, each checked by the residual, cheap ones first: damped Newton from the warm start; full Newton
-   rounds from the warm start and from zero impulses, mending inconsistent mode systems (below); the
-   proximal point method from the warm start (below); damped Newton from zero (a warm start can sit on a
-   corner of a pile's many equivalent load paths, where the modes cycle) and full steps from zero allowed
-   to raise the residual a few rounds in a row (they cross regions where damped steps crawl); full and
-   damped rounds with heavier proximal weights (``DAMPED``), each going only part of the way to its modes'
-   answer, which keeps a round from leaping far when the modes read are wrong (which weight lands a step is
-   hard to foretell: a step of ``stack-40`` that every try at 1e-5 missed lands at 1e-3, 1e-4 and 1e-6
-   alike, so the heavier tries start at 1e-3);
-4. Lemke's pivoting (``stackx.models.planar.pivoting``, sparse): on a box landing on a pile, where many points
-   change mode at once and the Newton rounds cycle between two mode combinations; its answer is taken to the
-   exact one by full Newton rounds. On small problems (up to ``LEMKE_EARLY`` points) it comes right after the
-   cheap tries (before the proximal point method), where it costs tens of milliseconds; on larger ones it is
-   the last try. On a problem over ``pivoting.EXACT_POINTS`` points it walks a regularized problem (seconds on
-   a 20-row pyramid), whose answer lies within about 1e-6 m/s of the step's, and full Newton rounds, then the
-   proximal point method (from weight ``PIVOT_SETTLE``), land from there. On recorded steps of a 20-row
-   pyramid that every other try missed it lands 28 of 29 under ``planar-soft-step`` at 64 substeps (1.3 to 59
-   s a step, most under 3 s) and 8 of 14 under ``planar-xpbd`` at 16; a run of the latter's first 40 steps
-   leaves 9 unsolved where 21 were without it (``python3 -m benchmarks.planar_reference --steps 40 --run
-   configs/planar/pyramid-20.yaml planar-xpbd 16``).
+**The fallback, where no path lands.** The proximal point method (``settle``, ``WALK``), begun from the closest
+answer the paths' Newton rounds reached: each outer round solves the *regularized* problem, whose velocities
+carry ``d (q - center)`` with the last round's answer as the center, by Newton rounds with a line search on its
+own residual, and the answers walk to an exact solution; the regularized problem is well conditioned, so its
+rounds do not leap where the true problem's modes read off a far answer give systems with answers at 1e3 m/s.
+Where the walk misses, Lemke's complementary pivoting on the Stewart-Trinkle formulation
+(``stackx.models.planar.pivoting``, ``LEMKE``), which cannot cycle and ends on an answer for this class of
+problem; Newton rounds take its answer to the exact one (on a problem over ``pivoting.EXACT_POINTS`` points its
+walk is on a regularized problem, and the walk of proximal points lands from there). On a problem of at most
+``LEMKE_EARLY`` points Lemke's walk costs milliseconds and comes first. The fallback's Newton rounds follow
+drifts (``DRIFT``, ``mode_rows.proximal_steps``): where held points close a loop whose targets disagree, a
+round's mode system has no answer and its proximal steps settle into a steady drift that moves load around the
+loop; the round strides along it until the first held point is emptied, which the next round reads as apart.
 
-**Faces that cannot stick at both points.** The two points of a face whose targets differ (one touching,
-one closing a speculative gap) close at different normal speeds, so the face turns; as the points sit at
-slightly different depths, their tangential slips then differ too (by the turn times their depth
-difference over their spacing, ~1e-9 m/s on a tilting stack). Both sticking is then a mode combination
-without an exact solution: its linear system is inconsistent, the proximal steps settle on a least-squares
-answer, and the modes read there are the same ones, so plain Newton stalls at ~1e-9 m/s. The full rounds
-notice the stall (same modes, residual not halving) and make one sticking point of the face that slips
-most slide against its slip, friction at its bound, for as long as it keeps slipping that way: the exact
-answer has one point of such a face at its bound and the other sticking. Which one is not guessed: the two
-slip nearly alike (1.6e-8 and 1.6e-8 m/s on a bouncing ``stack-40``, where the wrong one sent Newton off), so
-a round is tried with each and the one that lands lower is kept.
+**Faces that cannot stick at both points.** The two points of a face whose targets differ (one touching, one
+closing a speculative gap) slip at rates that differ by the face's turn times their depth difference, so both
+sticking is a mode combination without an exact answer, and plain Newton stalls near 1e-9 m/s. Full rounds
+notice the stall (same modes, residual not halving) and make a sticking point of the face that slips most slide
+against its slip; the two slip nearly alike, so each is tried and the one whose round lands lower is kept.
 
-**Piles whose Newton rounds leap: the proximal point method.** On a pile whose boxes sit a hair tilted
-(``pyramid-10`` under ``planar-xpbd`` at 16 substeps: a third of its faces have a touching point and one closing
-a gap) or that sags and slides, the modes read off swept impulses make mode systems whose answers lie at
-1e3 m/s: the rounds leap, and no fraction of such a step lowers the residual. The proximal point method never
-solves the true problem's mode systems until the end. Each of its outer rounds solves the *regularized*
-problem, whose velocities carry ``d (q - center)`` with the last round's answer as the center, by Newton
-rounds with a line search on that problem's own residual; the answers walk to an exact solution of the true
-problem. The regularized problem is well conditioned (strongly monotone without friction), so its Newton
-rounds do not leap, and its answer lies within about ``residual / d`` of the center. ``d`` starts at 1e-2,
-shrinks threefold after an outer round that took at most ``SETTLE_EASY`` Newton rounds (the walk speeds up
-as it nears the answer), and grows tenfold after one whose problem was not solved (that round is undone).
-Once the true residual is below ``POLISH``, full Newton rounds (mending faces, as above) try to land on the
-exact answer of the modes read there, and again whenever those modes change or the residual has fallen
-tenfold. With friction the regularized problem is not monotone, so the walk is not sure to end; it lands
-most steps every Newton try failed on; the steps it still misses are counted per run (docs/planar.md).
+**Redundant contacts and the proximal weight.** ``W = J M^-1 J^T`` is singular on a pile (a box resting flat has
+four rows for three velocities), so every mode system is solved with a proximal term, ``(W + d K^-1) p = rhs + d
+K^-1 p_prev`` with ``d = PROXIMAL`` scaled by each point's effective mass ``K``: of all the impulses that hold,
+the one nearest the current answer, and repeated steps converge to an exact solution of the singular system.
+Each step shrinks the error along an eigenvector of ``K^1/2 W K^1/2`` with eigenvalue ``lam`` by ``d / (lam +
+d)``: on a step of ``stack-40`` the smallest are 4.6e-7 to 1.4e-4, along which a weight of 1e-3 crawled (2.7 s a
+solve against 29 ms at 1e-5); at 1e-7 a round on wrong modes ran off faster (3 of the first 150 steps of
+``stack-10`` under ``planar-xpbd`` at 16 substeps unsolved, none at 1e-5). Both were measured with the earlier
+solve, which made more Newton tries before its fallback.
 
-**Loops of held faces: probing the stall.** On a pile seen through a speculative margin (``planar-xpbd``'s
-5 cm), a box sitting a hair tilted may rest on one point that closes a gap of a few micrometres (a target of a
-few 1e-5 m/s). Where such faces and sticking ones close a loop (box 35 on 40 and 41, each on 45 by such a
-point, on recorded ``pyramid-10`` steps), the loop's held normals and sticking tangents fix its bodies'
-motion twice over, and their targets disagree by a hair: every try stalls just above the tolerance
-(2.3e-10 m/s), the error shared out around the loop, and face mending, which looks at one face, does not get
-out. The exact answer has one point of the loop sliding, friction at its bound, which frees the loop; which
-one is not told by the residuals (the one that lands slipped second most there). So ``probe`` tries them:
-once a try has come below ``PROBE_NEAR`` without landing, each sticking point on a body of a point whose
-residual is above the tolerance, those slipping most first (at most ``PROBES``), is made to slide against
-its slip for good (``ModeSystem.forced``), and full Newton rounds from the closest answer try to land; the
-first that does is the answer, checked by the residual like any other. A pile may hold several such loops (a
-20-row pyramid does): a forced slide whose rounds leave fewer points off the contract is kept, and the probing
-goes on from there, within ``PROBES`` forced slides in all.
+**Measured** (``python3 -m benchmarks.planar_reference --bench CONFIG``): every shipped planar case but
+``pyramid-20`` runs its whole bench with every step solved; docs/planar.md gives what lands the steps and what a
+bench costs. Where it fails: a 20-row pyramid that topples, whose held points form loops of redundant contacts
+with disagreeing speculative targets; the failure raises ``ReferenceFailure`` with the best residual reached,
+and the bench counts the step as unsolved, shown beside the error, never skipped.
 
-**A restart from the closest answer, following drifts.** Every try is local: it reads modes off where it
-starts and where its rounds take it. Where all of them missed but one came within ``RESTART`` (1e-8 m/s), the
-tries are made once more, in the default order, from the closest answer reached (``restart``; the restarted
-solve does not restart again), and there a Newton round whose mode system has no answer follows its drift
-(``DRIFT``, ``mode_rows.proximal_steps``): where held points close a loop whose targets disagree, the round's
-proximal steps settle into a steady drift moving load around the loop, and the round strides along it until
-the first held point is emptied, which the next round reads as apart. Step 279 of ``pyramid-10`` under
-``planar-xpbd`` at 4 substeps missed every try (closest 1.8e-9 m/s, 37 points off by up to that); made again
-from there with drifts followed, the full Newton rounds (the second try) land it in under 0.1 s; without them
-every try misses again (5.4e-10 m/s). Only the restart follows drifts: made by every solve, a stride lands
-some steps sooner and sends others past the answer the path's end was next to (on recorded steps, a
-trembling ``stack-40`` and a loop on a pile went from the path's Newton tries, under 0.1 s, to Lemke's walk,
-1.6 to 2.8 s).
-
-**Where it may still fail.** A large problem (a 20-row pyramid has 800 points) on which every Newton try
-cycles, the proximal point method wanders, the forced slides probed do not land, and the proximal point method
-from the regularized problem's answer does not either; the solve
-then raises (``ReferenceFailure`` with the best residual reached) and the bench counts the step as
-``unsolved``, shown beside the error, never silently skipped. The known cases are on a 20-row pyramid that
-topples (``planar-xpbd`` at 4 substeps, ``planar-soft-step`` and ``planar-ngs`` at 1): many points slide at once,
-and on recorded steps of the first the held points form loops of redundant contacts whose speculative targets
-disagree, the central path folds even at a hundredth of the friction, and Lemke's walk does not end (docs/planar.md
-says why, and what else was tried).
-
-**Why exact.** The answer is returned only once the contract's own measure, ``problem.residual`` of the
-final impulses (complementarity of every normal, the friction box of every tangent, velocities recomputed
-from the impulses), is below the tolerance; else the solve raises. PGS alone only approaches the solution
-(its error falls by a constant factor per sweep, slowly on tall stacks); the linear solve of the right
-modes lands on it.
-
-**Redundant contacts.** A box resting flat has two points on a face, four rows for its three velocities,
-so ``W`` is singular and the impulses that hold a pile are not unique (the velocities are). Every system is
-solved with a proximal term: ``(W + d K^-1) p = rhs + d K^-1 p_prev`` with ``d = PROXIMAL`` (scaled by each
-point's effective mass ``K``), which picks, of all the impulses that hold, the one nearest the current
-answer, and whose repeated rounds converge to an exact solution of the singular system.
-
-**The proximal weight trades speed on tall piles against runaway on wrong modes.** Each proximal step
-shrinks the error along an eigenvector of the scaled Delassus matrix ``K^1/2 W K^1/2`` with eigenvalue
-``lam`` by ``d / (lam + d)``. A tall stack's boxes tilting together give tiny ones (a step of ``stack-40``:
-4.6e-7, 1.8e-5, 1.4e-4), so at ``d = 1e-3`` those parts crawled (0.9995 a step), every Newton try stalled
-near 1e-7 m/s, and mostly only Lemke's pivoting, the last try, solved a step: 2.7 s a solve against 29 ms at
-``d = 1e-5``, where the first or second try lands (median over the first 40 steps under ``planar-warm-start``:
-``python3 -m benchmarks.planar_reference --proximal D``). A smaller ``d`` lets a round on wrong modes, or on a
-face that cannot stick at both points, run off faster: at 1e-7, 3 of the first 150 steps of ``stack-10``
-under ``planar-xpbd`` at 16 substeps went unsolved, none at 1e-5.
+**Why exact.** An answer is returned only once the contract's own measure, ``problem.residual`` of the final
+impulses (complementarity of every normal, the friction box of every tangent, velocities recomputed from the
+impulses), is below the tolerance; else the solve raises.
 
 **Speed.** Every system is a band: ``banded`` orders the movable degrees of freedom once per problem (reverse
 Cuthill-McKee) and factors each mode system and each central path iteration there, compiled, with row pivoting.
@@ -161,21 +79,18 @@ from stackx.kernel import compiled, enabled, kernel
 from stackx.models.planar import banded, mode_rows
 from stackx.models.planar.interior import central_path
 from stackx.models.planar.problem import (GROUND, ContactProblem, effective_masses, inverse_masses, jacobian_rows,
-                                          point_residuals, residual, velocities_after)
+                                          residual, velocities_after)
 
 TOLERANCE = 1e-10  # m/s: the contract's residual the reference reaches
 PROXIMAL = 1e-5  # the proximal weight d (dimensionless: a share of each point's own effective mass)
-DAMPED = (1e-3, 1e-1, 1e-2)  # heavier proximal weights of the last Newton tries: each round goes part of the way
-LEMKE_EARLY = 64  # up to this many points, Lemke comes right after the cheap tries (it then takes < 0.1 s)
+LEMKE_EARLY = 64  # up to this many points, the fallback pivots first (Lemke then takes < 0.1 s)
 SWEEPS = 200  # most projected Gauss-Seidel sweeps before the first Newton round, and after a lost one
 CHUNK = 10  # sweeps between looks at the residual
 NEAR = 1e-3  # m/s: the sweeps stop once the residual is below this (Newton takes it from there)
-ROUNDS = 20  # Newton rounds of each try before the next one (three tries before the solve gives up)
-WARM_ROUNDS = 2  # Newton rounds from a near warm start before the interior point stage
+ROUNDS = 20  # damped Newton rounds from a path's end (twice as many full ones)
+WARM_ROUNDS = 2  # Newton rounds from a near warm start before the central path
 REFINE = 30  # most proximal steps per Newton round (each a solve with the round's factorization)
-DRIFT = 0.01  # a round's last two proximal steps as long within this share: a drift (mode_rows.proximal_steps)
-QUICK = 2  # tries of a quick solve: the first two of its order (from the warm start: damped, then full rounds)
-WANDER = 3  # full Newton steps in a row that may leave the residual above the best (last try)
+DRIFT = 0.01  # the fallback's rounds: last two proximal steps as long within this share, a drift (mode_rows)
 MIN_STEP = 1.0 / 64  # the shortest Newton step tried before going back to sweeps
 SETTLE_START = 1e-2  # the proximal point method's first weight d
 PIVOT_SETTLE = 1e-5  # its first weight from the answer of Lemke's walk on a large problem (already near)
@@ -184,14 +99,12 @@ SETTLE_EASY = 4
 SETTLE_FLOOR = 1e-9  # the smallest d
 SETTLE_ROUNDS = 300  # most outer rounds (each a regularized problem)
 SETTLE_QUICK = 60  # most outer rounds in a quick solve (the walks that land mostly take fewer than 50)
+PATH, WARM, WALK, LEMKE = 0, 1, 2, 3  # what landed a step (``Solution.attempt``)
 SETTLE_NEWTON = 20  # most Newton rounds per regularized problem
 SETTLE_SHARE = 0.1  # a regularized problem is solved once its residual is this share of the contract's
 SETTLE_STEP = 1e-4  # the shortest step of its line search
 POLISH = 1e-6  # m/s: below this contract residual, the proximal point method's full Newton rounds try to land
-PROBE_NEAR = 1e-8  # m/s: a try that got below this without landing has its stall probed by forced slides
 FRICTION_RAMP = (0.0, 0.25, 0.5, 0.75, 1.0)  # shares of the friction of the central paths in stages
-RESTART = 1e-8  # m/s: a solve whose tries all missed, one of them by less than this, makes them again from there
-PROBES = 32  # most forced slides a solve probes (each: full Newton rounds), those slipping most first
 
 
 class ReferenceFailure(RuntimeError):
@@ -209,8 +122,9 @@ class ReferenceFailure(RuntimeError):
 @dataclass
 class Solution:
     """A solved problem: impulses per point, the bodies' velocities after, the residual (m/s), and what it
-    took (Newton ``rounds`` of the try that landed, Gauss-Seidel ``sweeps`` in all, and which ``attempt`` of
-    the solve's tries landed, from 1)."""
+    took (Newton ``rounds`` of the stage that landed, Gauss-Seidel ``sweeps`` in all, and which stage landed,
+    ``attempt``: ``PATH`` the central path, ``WARM`` the warm start's Newton rounds, ``WALK`` the proximal point
+    method, ``LEMKE`` Lemke's pivoting)."""
 
     pn: np.ndarray
     pt: np.ndarray
@@ -218,7 +132,7 @@ class Solution:
     residual: float
     rounds: int
     sweeps: int
-    attempt: int = 1
+    attempt: int = WARM
 
 
 @kernel
@@ -276,17 +190,13 @@ def backtrack(merit: Callable[[np.ndarray], float], q: np.ndarray, target: np.nd
 
 def solve(problem: ContactProblem, pn: np.ndarray | None = None, pt: np.ndarray | None = None,
           tolerance: float = TOLERANCE, sweeps: int = SWEEPS, rounds: int = ROUNDS, quick: bool = False,
-          begin: int = 1, interior: bool = True, restart: bool = True, drift: float = 0.0) -> Solution:
+          interior: bool = True) -> Solution:
     """Solve ``problem`` to ``residual < tolerance`` (m/s), starting from impulses ``pn``, ``pt`` (a warm
-    start, e.g. the last step's by feature; zeros when None). ``begin``: the try (numbered as
-    ``Solution.attempt``) to make first, the ones before it coming last: the try that landed the last step of
-    the same run, which most likely lands this one too (the order changes only the cost; a number names the
-    same try as long as the problem stays on the same side of ``LEMKE_EARLY`` points). ``quick``: the first
-    ``QUICK`` tries of that order only, the proximal point method's walk cut to ``SETTLE_QUICK`` rounds (see
-    ``step_problem.ReferenceStep``: after steps in a row that every try failed). ``restart``: where every try
-    missed but one came within ``RESTART``, the tries are made once more from that closest answer, their Newton
-    rounds following a drift (``drift``: see ``ModeSystem``). Raises ``ReferenceFailure`` when no try gets there
-    (see the module text for the method)."""
+    start, e.g. the last step's by feature; zeros when None): the warm start's own Newton rounds, the central
+    path, and where no path lands, the fallback (see the module text). ``quick``: the fallback's walk only,
+    cut to ``SETTLE_QUICK`` rounds (see ``step_problem.ReferenceStep``: after steps in a row that nothing
+    landed). ``interior=False`` leaves the paths out (the fallback alone). Raises ``ReferenceFailure`` when
+    nothing gets there."""
     m, n = problem.points, problem.bodies
     pn = np.zeros(m) if pn is None else np.array(pn, dtype=np.float64)
     pt = np.zeros(m) if pt is None else np.array(pt, dtype=np.float64)
@@ -297,9 +207,9 @@ def solve(problem: ContactProblem, pn: np.ndarray | None = None, pt: np.ndarray 
         bad = int(np.flatnonzero(~(np.isfinite(kn) & np.isfinite(kt)))[0])
         raise ReferenceFailure(f"contact point {bad} joins two immovable bodies "
                                f"({problem.body_a[bad]}, {problem.body_b[bad]}): no impulse can act on it")
-    newton = ModeSystem(problem, kn, kt, PROXIMAL, drift)
+    newton = ModeSystem(problem, kn, kt, PROXIMAL)
     # every mode system of the problem is factored in the band of the same order: found once
-    mode_system = partial(ModeSystem, problem, kn, kt, drift=drift, order=(newton.where, newton.half))
+    mode_system = partial(ModeSystem, problem, kn, kt, order=(newton.where, newton.half))
     args = (problem.body_a, problem.body_b, problem.normal, problem.ra, problem.rb, problem.friction,
             problem.target, problem.inv_mass, problem.inv_inertia, kn, kt)
     swept = 0
@@ -320,7 +230,7 @@ def solve(problem: ContactProblem, pn: np.ndarray | None = None, pt: np.ndarray 
                 break
         return q
 
-    closest: list = [np.inf, None]  # the least residual any try reached, and where
+    closest: list = [np.inf, None]  # the least residual reached, and where: what a failure hands back
 
     def near(q: np.ndarray, now: float) -> None:
         """Keep ``q`` as the closest answer yet if its residual ``now`` is the least seen."""
@@ -334,15 +244,15 @@ def solve(problem: ContactProblem, pn: np.ndarray | None = None, pt: np.ndarray 
         score = residual(problem, pn, pt)
         return Solution(pn, pt, velocities_after(problem, pn, pt), score, rounds, swept) if score < tolerance else None
 
-    def attempt(q: np.ndarray, rounds: int, wander: int) -> tuple[Solution | None, float]:
-        """Newton rounds from ``q`` (swept first unless already near): the solution, or None and the best
-        residual reached. ``wander``: how many full steps in a row may leave the residual above the best
-        (0: every step is damped until the residual falls)."""
+    def attempt(q: np.ndarray, rounds: int) -> tuple[Solution | None, float]:
+        """Damped Newton rounds from ``q`` (swept first unless already near): each round's step is taken if it
+        lowers the residual below the best yet, else half of it, a quarter... if that lowers it; where none
+        does, sweeps mend the modes. The solution, or None and the best residual reached."""
         now = newton.merit(q)
         if now >= NEAR:
             q = sweep(q, NEAR)
             now = newton.merit(q)
-        best_q, best, wandering = q, now, 0
+        best = now
         for done in range(rounds + 1):
             found = landed(q, done) if now < tolerance else None
             if found is not None:
@@ -351,14 +261,9 @@ def solve(problem: ContactProblem, pn: np.ndarray | None = None, pt: np.ndarray 
                 break
             target = newton.step(q)
             after = newton.merit(target)
-            if after < best or (wandering < wander and np.isfinite(after)):
-                # the full step: it switches every point whose mode it shows wrong at once
-                wandering = 0 if after < best else wandering + 1
+            if after < best:  # the full step: it switches every point whose mode it shows wrong at once
                 q, now = target, after
             else:
-                if wander:
-                    q, now, wandering = best_q, best, 0  # back to the best answer
-                    target = newton.step(q)
                 lower = backtrack(newton.merit, q, target, now, 0.5, MIN_STEP)
                 if lower is not None:
                     q, now = lower
@@ -366,22 +271,19 @@ def solve(problem: ContactProblem, pn: np.ndarray | None = None, pt: np.ndarray 
                     q = sweep(q, 0.5 * now)
                     now = newton.merit(q)
                     newton.modes = None
-            if now < best:
-                best_q, best = q, now
-                near(q, now)
+            best = min(best, now)
+            near(q, now)
         return None, best
 
     face = np.unique(np.stack([problem.body_a, problem.body_b], axis=1), axis=0, return_inverse=True)[1].reshape(-1)
 
-    ended: list[np.ndarray] = []  # where the last full rounds came closest
-
     def full(q: np.ndarray, rounds: int) -> tuple[Solution | None, float]:
         """Full Newton rounds from ``q``, mending inconsistent mode systems: the solution, or None and the best
-        residual reached (where: ``ended``). When the modes stay and the residual stops falling, the round's
-        system has no exact solution: two points of one face with different targets (one touching, one
-        speculative) cannot both stick, as their slips differ by what the face's turning gives. Then a sticking
-        point of the face that slips most, whichever's round lands lower, is made to slide against its slip
-        (friction at its bound), and stays so while it slips that way."""
+        residual reached. When the modes stay and the residual stops falling, the round's system has no exact
+        solution: two points of one face with different targets (one touching, one speculative) cannot both
+        stick, as their slips differ by what the face's turning gives. Then a sticking point of the face that
+        slips most, whichever's round lands lower, is made to slide against its slip (friction at its bound),
+        and stays so while it slips that way."""
         slide: dict[int, float] = {}
         best, last = np.inf, np.inf
         for done in range(rounds):
@@ -392,8 +294,7 @@ def solve(problem: ContactProblem, pn: np.ndarray | None = None, pt: np.ndarray 
                 return found, found.residual
             if not np.isfinite(now):
                 break
-            if now < best:
-                best, ended[:] = now, [q]
+            best = min(best, now)
             near(q, now)
             gap = newton.gap(q)
             for i in list(slide):  # a forced slide running the wrong way, or a point let go, is freed
@@ -461,48 +362,6 @@ def solve(problem: ContactProblem, pn: np.ndarray | None = None, pt: np.ndarray 
                     return found, found.residual
         return None, best
 
-    def off(q: np.ndarray) -> np.ndarray:
-        """Which points of scaled impulses ``q`` are off the contract (residual at or above the tolerance)."""
-        normal, tangent = point_residuals(problem, q[:m] * kn, q[m:] * kt)
-        return np.maximum(normal, tangent) >= tolerance
-
-    def probe(q: np.ndarray) -> Solution | None:
-        """Forced slides from a stall ``q``, at most ``PROBES`` in all: each sticking point on a body of a point
-        that is off the contract, those slipping most first, is made to slide against its slip for good, and
-        full Newton rounds from ``q`` try to land; the first that does is the answer. Where held faces close a
-        loop whose targets disagree by a hair, the exact answer has a point of the loop sliding, and which one
-        is not told by the residuals (on a recorded pile the one that lands slipped second most). A pile may
-        hold several such loops: a slide whose rounds leave fewer points off, still within ``PROBE_NEAR``, is
-        kept, and the probing goes on from where those rounds came closest."""
-        nonlocal newton
-        forced: dict[int, float] = {}
-        bad, budget = off(q), PROBES
-        while budget > 0:
-            bodies = np.setdiff1d(np.concatenate([problem.body_a[bad], problem.body_b[bad]]), [GROUND])
-            around = np.isin(problem.body_a, bodies) | np.isin(problem.body_b, bodies)
-            newton = mode_system(PROXIMAL)
-            gap, qn, qt = newton.gap(q), q[:m], q[m:]
-            stick = (qn > gap[:m]) & (np.abs(qt - gap[m:]) <= newton.cone * qn)
-            slip = gap[m:]
-            points = np.flatnonzero(around & stick & (slip != 0.0))
-            points = [int(i) for i in points[np.argsort(-np.abs(slip[points]), kind="stable")] if i not in forced]
-            kept = None
-            for i in points[:budget]:
-                budget -= 1
-                newton = mode_system(PROXIMAL)
-                newton.forced = {**forced, i: -float(np.sign(slip[i]))}
-                found, reached = full(q, 2 * rounds)
-                if found is not None:
-                    return found
-                if reached < PROBE_NEAR and off(ended[0]).sum() < bad.sum():
-                    kept = newton.forced, ended[0]
-                    break
-            if kept is None:
-                return None
-            forced, q = kept
-            bad = off(q)
-        return None
-
     def pivot() -> tuple[Solution | None, float]:
         """Lemke's pivoting (``stackx.models.planar.pivoting``), each answer it ends on taken to the exact one by
         full Newton rounds; on a large problem, whose walk is on a regularized problem, then by the proximal
@@ -525,35 +384,32 @@ def solve(problem: ContactProblem, pn: np.ndarray | None = None, pt: np.ndarray 
             best = min(best, reached)
         return None, best
 
-    warm, zero = np.concatenate([pn / kn, pt / kt]), np.zeros(2 * m)
-    starts = [warm, zero] if pn.any() or pt.any() else [warm]
-    if interior:
-        # a warm start near the answer (a pile at rest: the last step's answer is this one's) lands in a round or
-        # two of its own modes, the first try's opening: cheaper than any path
-        if newton.merit(warm) < NEAR:
-            found, _ = attempt(warm, WARM_ROUNDS, 0)
-            if found is not None:
-                return found
-        # the interior point stage (``interior``): the central path from the problem alone, then the two cheap
-        # Newton tries from where it ends; a landing there is ``attempt`` 0
-        def follow(begun: np.ndarray | None, ramp: tuple[float, ...] = (1.0,)) -> Solution | None:
-            """The central path from ``begun`` (None: its own start), once per share of the friction in
-            ``ramp``, each from where the last ended, then the two cheap Newton tries from its end."""
-            path, ended_on_path = begun, 0
-            for share in ramp:
-                with np.errstate(over="ignore", invalid="ignore", divide="ignore"):  # far end's products underflow
-                    path, _, ended_on_path = central_path(newton.values, newton.columns, newton.k,
-                                                          share * newton.cone, newton.v0, newton.inv,
-                                                          newton.fixed_u, newton.target, path,
-                                                          (newton.where, newton.half))
-            for run in (partial(attempt, path, rounds, 0), partial(full, path, 2 * rounds)) if ended_on_path else ():
-                newton.modes = None
-                found, _ = run()
-                if found is not None:
-                    found.attempt = 0
-                    return found
-            return None
+    warm = np.concatenate([pn / kn, pt / kt])
+    # a warm start near the answer (a pile at rest: the last step's answer is this one's) lands in a round or two
+    # of its own modes: cheaper than any path
+    if newton.merit(warm) < NEAR:
+        found, _ = attempt(warm, WARM_ROUNDS)
+        if found is not None:
+            return found
 
+    def follow(begun: np.ndarray | None, ramp: tuple[float, ...] = (1.0,)) -> Solution | None:
+        """The central path from ``begun`` (None: its own start), once per share of the friction in ``ramp``,
+        each from where the last ended, then damped and full Newton rounds from its end."""
+        path, ended_on_path = begun, 0
+        for share in ramp:
+            with np.errstate(over="ignore", invalid="ignore", divide="ignore"):  # far end's products underflow
+                path, _, ended_on_path = central_path(newton.values, newton.columns, newton.k, share * newton.cone,
+                                                      newton.v0, newton.inv, newton.fixed_u, newton.target, path,
+                                                      (newton.where, newton.half))
+        for run in (partial(attempt, path, rounds), partial(full, path, 2 * rounds)) if ended_on_path else ():
+            newton.modes = None
+            found, _ = run()
+            if found is not None:
+                found.attempt = PATH
+                return found
+        return None
+
+    if interior:
         # from the path's own start, then (where that folded) from the warm start, which lies on the answer's side
         # of a fold more often than not, then with the friction raised in stages from none (``FRICTION_RAMP``)
         paths = [partial(follow, None)] + ([partial(follow, warm)] if pn.any() or pt.any() else [])
@@ -562,58 +418,32 @@ def solve(problem: ContactProblem, pn: np.ndarray | None = None, pt: np.ndarray 
             found = run()
             if found is not None:
                 return found
-    # every try is checked by the residual, so the order changes nothing but the cost: the cheap tries first,
-    # then (on small problems, where it costs a few tens of ms) Lemke's pivoting, then the proximal point
-    # method (seconds on a 20-row pyramid), then heavier Newton tries, and Lemke last on larger problems,
-    # where it takes seconds. A try: its proximal weight and what it runs.
-    cheap = [(PROXIMAL, partial(attempt, warm, rounds, 0))]
-    cheap += [(PROXIMAL, partial(full, start, 2 * rounds)) for start in starts]
-    heavy = [(PROXIMAL, partial(attempt, zero, rounds, 0))] * (len(starts) - 1)
-    heavy += [(PROXIMAL, partial(attempt, zero, rounds, WANDER))]
-    for d in DAMPED:
-        heavy += [(d, partial(full, warm, 2 * rounds)), (d, partial(attempt, warm, rounds, 0))]
-    walk = [(PROXIMAL, partial(settle, warm, 2 * rounds))]
-    lemke = [(PROXIMAL, pivot)]
-    tries = cheap + lemke + walk + heavy if m <= LEMKE_EARLY else cheap + walk + heavy + lemke
-    numbered = list(enumerate(tries, 1))
-    if 1 < begin <= len(tries):
-        numbered = numbered[begin - 1:] + numbered[:begin - 1]
+    # the fallback: the proximal point method from the warm start, then Lemke's pivoting (on small problems, where
+    # it costs tens of milliseconds, the other way round), their Newton rounds following drifts (``DRIFT``)
+    mode_system = partial(ModeSystem, problem, kn, kt, drift=DRIFT, order=(newton.where, newton.half))
+    newton = mode_system(PROXIMAL)
+    begun = warm if closest[1] is None else closest[1]  # the closest answer the paths' Newton rounds reached
+    fallback = [(WALK, partial(settle, begun, 2 * rounds)), (LEMKE, pivot)]
     if quick:
-        numbered = numbered[:QUICK]
-    best, probed = np.inf, False
-    for number, (proximal, run) in numbered:
-        if proximal != newton.proximal or newton.forced:
-            newton = mode_system(proximal)
+        fallback = fallback[:1]
+    elif m <= LEMKE_EARLY:
+        fallback.reverse()
+    best = np.inf
+    for number, run in fallback:
         newton.modes = None
         found, reached = run()
-        if found is None and not probed and closest[0] < PROBE_NEAR:
-            probed = True  # the stall of a try that came this near is probed once, counted as that try's
-            found = probe(closest[1])
         if found is not None:
             found.attempt = number
             return found
         best = min(best, reached)
-    if begin > 1 and not quick:
-        # the tries are the same in any order, but not what they leave each other (the stall probed once, the
-        # modes read): a row that begins with the try that landed its last step (the fifth, on a leaning row of
-        # dominoes) can miss a step the default order lands, so the default order has the last word
-        return solve(problem, pn, pt, tolerance, sweeps, rounds, interior=False, restart=restart)
     kept = warm if closest[1] is None else closest[1]
     kept_pn, kept_pt = np.maximum(kept[:m], 0.0) * kn, kept[m:] * kt
     kept_pt = np.clip(kept_pt, -problem.friction * kept_pn, problem.friction * kept_pn)
-    if restart and not quick and closest[0] < RESTART:
-        # every try is local: begun from the closest answer any of them reached, they read its modes, not the
-        # warm start's (see the module text)
-        try:
-            return solve(problem, kept_pn, kept_pt, tolerance, sweeps, rounds, interior=False, restart=False,
-                         drift=DRIFT)
-        except ReferenceFailure as again:
-            if again.best < closest[0]:
-                raise
-    raise ReferenceFailure(f"the contact problem ({m} points, {n} bodies) was not solved to {tolerance:g} m/s "
-                           f"in {len(numbered)} tries ({rounds} damped or {2 * rounds} full Newton rounds each, "
-                           f"Lemke pivoting) and {swept} sweeps: best residual {best:.3g} m/s",
-                           best, kept_pn, kept_pt)
+    stages = (["the central path"] if interior else []) + ["the proximal point method"]
+    tried = ", ".join(stages) + ("" if quick else " or Lemke's pivoting")
+    best = min(best, closest[0])
+    raise ReferenceFailure(f"the contact problem ({m} points, {n} bodies) was not solved to {tolerance:g} m/s by "
+                           f"{tried} ({swept} sweeps): best residual {best:.3g} m/s", best, kept_pn, kept_pt)
 
 
 class ModeSystem:
@@ -654,7 +484,6 @@ class ModeSystem:
         self.cone = problem.friction * kn / kt  # the friction bound in q units: |q_t| <= cone q_n
         self.mu = problem.friction
         self.modes: np.ndarray | None = None
-        self.forced: dict[int, float] = {}  # point: +-1, held and sliding that way whatever the impulses say
         self.kept = False
         self.proximal = proximal  # the weight d; may be changed between rounds (the factorization follows)
         self.drift = drift  # 0: a round's proximal steps stop after REFINE; else a steady drift is followed
@@ -684,8 +513,6 @@ class ModeSystem:
         held = qn > gap[:m]
         z = qt - gap[m:]
         modes = np.concatenate([held, held & (z > self.cone * qn), held & (z < -self.cone * qn)])
-        for i, sign in self.forced.items():
-            modes[i], modes[m + i], modes[2 * m + i] = True, sign > 0.0, sign < 0.0
         return modes
 
     def factor(self, held: np.ndarray, plus: np.ndarray, minus: np.ndarray) -> None:

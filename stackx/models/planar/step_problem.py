@@ -10,38 +10,14 @@ So the reference solves the very problem the solvers set themselves.
 starts the next solve from them (``recall``/``remember``): from one step to the next most points carry
 nearly the same load, and the solve then needs few or no Newton rounds.
 
-**The try that landed the last step comes first.** A row also keeps which of the solve's tries landed its last
-step (``Solution.attempt``), and its next solve begins with that try, the earlier ones coming last
-(``reference.solve``'s ``begin``). A pile that needs the proximal point method at nearly every step
-(``pyramid-10`` under ``planar-xpbd``) so skips the three cheap tries, 0.45 s a step that never landed: its first
-150 steps at 16 substeps cost the reference 191 s against 336 s, one run of each version side by side
-(``python3 -m benchmarks.planar_reference --steps 150 --run configs/planar/pyramid-10.yaml planar-xpbd 16``,
-the ``total s`` column). The count of unsolved steps moved (27 then, 33 after; 1 since stalls are probed, see
-``reference``): the impulses that hold a pile are not unique, and which answer a try lands on is the next
-step's start. A solve begun elsewhere that misses is made again in the default order before it counts as
-missed: the tries leave each other different starts (the stall is probed once), and on step 345 of a
-leaning row of dominoes the order begun at the fifth try missed what the default order lands.
-
-**What a hopeless run costs.** A pile the reference cannot follow sets steps that every try fails, each
-costing all the tries (a 20-row pyramid under ``planar-xpbd`` at 16 substeps: 9 of its first 40 steps, up to
-81 s a solve, on 2 shared cores: ``python3 -m benchmarks.planar_reference --steps 40 --run
-configs/planar/pyramid-20.yaml planar-xpbd 16``). After ``MISSES`` such steps in a row, a row's solves are quick: the first ``reference.QUICK``
-tries of their order, the walk of the proximal point method cut to ``reference.SETTLE_QUICK`` rounds, until one
-lands again. That may leave more steps unsolved, never a wrong answer: every unsolved step is counted and
-shown beside the error, and a run with any is kept out of speed-against-error plots, fronts and winners. The
-rule depends only on the run's own steps, so the same run gives the same counts. Why two tries: a trembling
-``stack-40`` (``planar-warm-start`` at 16 iterations, relaxation 1.9) whose solves made the first try alone
-after three early misses left 597 of its 600 steps unsolved; with the second try (full rounds), 2
-(``python3 -m benchmarks.planar_reference --steps 600 --run configs/planar/stack-40.yaml planar-warm-start 16``).
-Why in the run's order: when the quick tries were always the two cheap ones, a run that needs the walk landed
-nothing once quick, and ``pyramid-10`` under ``planar-xpbd`` at 4 substeps left 126 of its first 150 steps
-unsolved (its RMS error, 0.0592 m/s, then came from 24 steps); now 39 (0.0464 m/s), at 301 s against 240 s.
-
-**A near miss is not counted.** A failed solve whose best residual is below ``NEAR_MISS`` (1e-8 m/s, against
-the tolerance of 1e-10) shows the full tries working on this run, so it does not count toward ``MISSES``.
-``pyramid-10`` under ``planar-xpbd`` at 16 substeps needs the proximal point method (the fourth try) at
-nearly every step; six steps in a row ended at 2.3e-10 m/s, and the quick tries that followed (then the two
-cheap ones) could land none of the rest: 46 of its first 150 steps unsolved, 27 with near misses not counted.
+**What a hopeless run costs.** A pile the reference cannot follow sets steps that nothing lands, each costing
+the whole fallback (the proximal point method's walk and Lemke's pivoting: up to tens of seconds on a 20-row
+pyramid). After ``MISSES`` such steps in a row, a row's solves are quick (``reference.solve``'s ``quick``): the
+walk alone, cut to ``reference.SETTLE_QUICK`` rounds, until a step lands again. That may leave more steps
+unsolved, never a wrong answer: every unsolved step is counted and shown beside the error, and a run with any
+is kept out of speed-against-error plots, fronts and winners. The rule depends only on the run's own steps,
+so the same run gives the same counts. A failed solve whose best residual is below ``NEAR_MISS`` (1e-8 m/s,
+against the tolerance of 1e-10) shows the fallback working on this run, so it does not count toward ``MISSES``.
 """
 
 from __future__ import annotations
@@ -57,7 +33,7 @@ from stackx.solvers.planar.contacts import (A, B, DEPTH, MU, NX, NY, PN, PT, RAX
                                             contact_workspace, find_contacts, gravity, prepare, recall, remember,
                                             set_targets)
 
-MISSES = 3  # failed solves in a row after which a row's solves make only their quick tries
+MISSES = 3  # failed solves in a row after which a row's solves are quick
 NEAR_MISS = 1e-8  # m/s: a failed solve whose best residual is below this does not count toward MISSES
 
 
@@ -114,7 +90,6 @@ class ReferenceStep:
         self.carried = [np.zeros((room, 2)) for _ in range(rows)]
         self.held = np.zeros(rows, np.int64)
         self.missed = np.zeros(rows, np.int64)  # steps in a row the solve failed, per row
-        self.landed = np.ones(rows, np.int64)  # the try that landed the row's last solved step: the next begins there
         self.ids, self.table = contact_workspace(room)
         self.problem: ContactProblem | None = None  # the last problem solved
 
@@ -140,15 +115,12 @@ class ReferenceStep:
                                              int(self.held[b]))
         self.problem = problem = as_problem(self.ids, self.table, count, inv_mass, inv_inertia, vx, vy, w)
         try:
-            found = solve(problem, self.table[:count, PN], self.table[:count, PT], quick=self.missed[b] >= MISSES,
-                          begin=int(self.landed[b]))
+            found = solve(problem, self.table[:count, PN], self.table[:count, PT], quick=self.missed[b] >= MISSES)
         except ReferenceFailure as failure:
-            if failure.best > NEAR_MISS:  # a near miss says the full tries work on this run: it is not counted
+            if failure.best > NEAR_MISS:  # a near miss says the fallback works on this run: it is not counted
                 self.missed[b] += 1
             raise
         self.missed[b] = 0
-        if found.attempt:  # the interior point stage (0) comes first anyway: the memory is of the tries after it
-            self.landed[b] = found.attempt
         self.keep(b, count, found)
         return found
 
