@@ -167,7 +167,7 @@ def bench_costs(path: str, steps: int | None) -> tuple[float, dict[str, dict[str
     spent: dict[tuple[int, int], dict[str, float]] = defaultdict(lambda: defaultdict(float))  # (batch, row)
     batch_log: dict[int, float] = defaultdict(float)  # step log seconds per batch
     current: list[Any] = [None]  # the batch log whose step is being logged
-    landed: dict[int, int] = defaultdict(int)  # the step log's solved steps by the try that landed them
+    landed: dict[int, int] = defaultdict(int)  # the step log's solved steps by the stage that landed them
     plain_batch, plain_log, plain_check = StepLog.batch, planar_log.log_step, planar_log.check_own
     plain_solve = step_problem.ReferenceStep._solve
 

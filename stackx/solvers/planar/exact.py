@@ -15,8 +15,8 @@ One step of one world:
 5. the lab's position correction (slop, percent) on the points that overlap after the move.
 
 Steps 1, 2, 4 and 5 are compiled kernels; the solve's linear algebra (the central path's iterations, each
-mode system's band LU and its proximal steps: ``stackx.models.planar.banded``) is compiled too, its choice of
-tries numpy. The solver's only knobs say which problem it sets itself (``speculative``) and how overlap is
+mode system's band LU and its proximal steps: ``stackx.models.planar.banded``) is compiled too, the choice of
+its stages numpy. The solver's only knobs say which problem it sets itself (``speculative``) and how overlap is
 undone (``correction``); the solve has no knob: it is exact or it fails.
 """
 
