@@ -32,8 +32,8 @@ walk is on a regularized problem, and the walk of proximal points lands from the
 miss, they are made again following drifts (``DRIFT``, ``mode_rows.proximal_steps``): where held points close a
 loop whose targets disagree, a round's mode system has no answer and its proximal steps settle into a steady
 drift that moves load around the loop; the round strides along it until the first held point is emptied, which
-the next round reads as apart. Plain rounds come first: with drifts followed from the start, the walk missed a
-step of a shaking 20-row pyramid (``planar-xpbd`` at 16 substeps, 902 points) that it lands after plain rounds.
+the next round reads as apart. Plain rounds come first: with drifts followed from the start, the fallback missed
+a step of a shaking 20-row pyramid (``planar-xpbd`` at 16 substeps, 902 points, 1.5e-9 m/s) that it now lands.
 
 **Faces that cannot stick at both points.** The two points of a face whose targets differ (one touching, one
 closing a speculative gap) slip at rates that differ by the face's turn times their depth difference, so both
@@ -101,12 +101,12 @@ SETTLE_EASY = 4
 SETTLE_FLOOR = 1e-9  # the smallest d
 SETTLE_ROUNDS = 300  # most outer rounds (each a regularized problem)
 SETTLE_QUICK = 60  # most outer rounds in a quick solve (the walks that land mostly take fewer than 50)
-PATH, WARM, WALK, LEMKE = 0, 1, 2, 3  # what landed a step (``Solution.attempt``)
 SETTLE_NEWTON = 20  # most Newton rounds per regularized problem
 SETTLE_SHARE = 0.1  # a regularized problem is solved once its residual is this share of the contract's
 SETTLE_STEP = 1e-4  # the shortest step of its line search
 POLISH = 1e-6  # m/s: below this contract residual, the proximal point method's full Newton rounds try to land
 FRICTION_RAMP = (0.0, 0.25, 0.5, 0.75, 1.0)  # shares of the friction of the central paths in stages
+PATH, WARM, WALK, LEMKE = 0, 1, 2, 3  # what landed a step (``Solution.attempt``)
 
 
 class ReferenceFailure(RuntimeError):
@@ -455,8 +455,8 @@ def solve(problem: ContactProblem, pn: np.ndarray | None = None, pt: np.ndarray 
     kept = warm if closest[1] is None else closest[1]
     kept_pn, kept_pt = np.maximum(kept[:m], 0.0) * kn, kept[m:] * kt
     kept_pt = np.clip(kept_pt, -problem.friction * kept_pn, problem.friction * kept_pn)
-    stages = (["the central path"] if interior else []) + ["the proximal point method"]
-    tried = ", ".join(stages) + ("" if quick else " or Lemke's pivoting")
+    stages = ["the central path"] * interior + ["the proximal point method"] + ["Lemke's pivoting"] * (not quick)
+    tried = " or ".join(filter(None, [", ".join(stages[:-1]), stages[-1]]))
     best = min(best, closest[0])
     raise ReferenceFailure(f"the contact problem ({m} points, {n} bodies) was not solved to {tolerance:g} m/s by "
                            f"{tried} ({swept} sweeps): best residual {best:.3g} m/s", best, kept_pn, kept_pt)
