@@ -86,3 +86,56 @@ def test_a_singular_system_is_reported(on: bool) -> None:
         ab = banded.band(np.zeros(12), where, half)  # no mass, and rows that reach one direction of each body
         banded.add(ab, half, where, weight, left, left, columns)
         assert not banded.factor(ab, half, np.zeros(12, np.int64))
+
+
+def textbook_lu(dense: np.ndarray, half: int) -> tuple[np.ndarray, list[int]]:
+    """LU with row pivoting of a matrix whose entries lie within ``half`` of the diagonal, entry by entry on
+    the dense matrix: at step ``k`` the largest of column ``k``'s ``half`` entries below the diagonal (the first
+    of equals) is swapped up in columns ``k`` on (earlier multipliers stay where they are, as LAPACK's band LU
+    keeps them), the column below is divided by the pivot, and every entry ``(i, j)`` right of and below it
+    loses ``l_ik u_kj`` (none where ``u_kj`` is 0). Returns the factors in place of the matrix, and the swaps."""
+    a = dense.copy()
+    n = a.shape[0]
+    swaps = []
+    for k in range(n):
+        last = min(n - 1, k + half)
+        p = k
+        for i in range(k + 1, last + 1):
+            if abs(a[i, k]) > abs(a[p, k]):
+                p = i
+        swaps.append(p)
+        a[[k, p], k:] = a[[p, k], k:]
+        for i in range(k + 1, last + 1):
+            a[i, k] = a[i, k] / a[k, k]
+        for j in range(k + 1, n):
+            if a[k, j] != 0.0:
+                for i in range(k + 1, last + 1):
+                    a[i, j] = a[i, j] - a[i, k] * a[k, j]
+    return a, swaps
+
+
+@pytest.mark.parametrize("on", [False, True])
+def test_the_band_factors_are_the_textbook_ones_to_the_bit(on: bool) -> None:
+    # an unsymmetric band whose columns need swaps: the factors, the fill above the band included, are the ones
+    # of the elimination written entry by entry, bit for bit (the compiled loop's layout changes no operation)
+    rng = np.random.default_rng(7)
+    dof = 36
+    columns = rows(rng, 60, dof)[1]
+    left, right = rng.standard_normal((60, 6)), rng.standard_normal((60, 6))
+    weight, diagonal = rng.uniform(0.5, 2.0, 60), rng.uniform(0.01, 0.02, dof)
+    with compiled(on):
+        where, half = banded.ordering(columns, dof)
+        ab = banded.band(diagonal, where, half)
+        banded.add(ab, half, where, weight, left, right, columns)
+        ordered = np.zeros((dof, dof))
+        for j in range(dof):
+            for i in range(max(0, j - half), min(dof, j + half + 1)):
+                ordered[i, j] = ab[j, 2 * half + i - j]
+        pivots = np.zeros(dof, np.int64)
+        assert banded.factor(ab, half, pivots)
+    expected, swaps = textbook_lu(ordered, half)
+    assert list(pivots) == swaps and sum(p != k for k, p in enumerate(swaps)) >= 5
+    for j in range(dof):
+        for i in range(max(0, j - 2 * half), min(dof, j + half + 1)):
+            assert ab[j, 2 * half + i - j] == expected[i, j]
+    assert np.array_equal(np.triu(expected, 2 * half + 1), np.zeros((dof, dof)))  # no fill beyond 2 half
