@@ -36,6 +36,24 @@ def chain(bodies: int) -> np.ndarray:
     return np.array(columns, np.int64)
 
 
+def unsymmetric(seed: int, count: int, dof: int) -> tuple[np.ndarray, ...]:
+    """``count`` random rows on ``dof`` unknowns, unsymmetric (pivoting needed): ``(columns, left, right,
+    weight, diagonal)`` of ``diag + sum_r weight_r left_r right_r^T``."""
+    rng = np.random.default_rng(seed)
+    columns = rows(rng, count, dof)[1]
+    left, right = rng.standard_normal((count, 6)), rng.standard_normal((count, 6))
+    return columns, left, right, rng.uniform(0.5, 2.0, count), rng.uniform(0.01, 0.02, dof)
+
+
+def assembled(columns: np.ndarray, left: np.ndarray, right: np.ndarray, weight: np.ndarray,
+              diagonal: np.ndarray) -> tuple[np.ndarray, int, np.ndarray]:
+    """The order, half width and band of the system (``banded``'s, plain or compiled as the caller runs)."""
+    where, half = banded.ordering(columns, diagonal.shape[0])
+    ab = banded.band(diagonal, where, half)
+    banded.add(ab, half, where, weight, left, right, columns)
+    return where, half, ab
+
+
 @pytest.mark.parametrize("on", [False, True])
 def test_the_order_puts_a_chain_in_a_narrow_band(on: bool) -> None:
     columns = chain(30)
@@ -49,17 +67,12 @@ def test_the_order_puts_a_chain_in_a_narrow_band(on: bool) -> None:
 
 @pytest.mark.parametrize("on", [False, True])
 def test_the_band_solves_what_numpy_solves(on: bool) -> None:
-    rng = np.random.default_rng(4)
     dof = 30
-    columns = rows(rng, 50, dof)[1]
-    left, right = rng.standard_normal((50, 6)), rng.standard_normal((50, 6))  # unsymmetric: pivoting needed
-    weight, diagonal = rng.uniform(0.5, 2.0, 50), rng.uniform(0.01, 0.02, dof)
+    columns, left, right, weight, diagonal = unsymmetric(4, 50, dof)
     dense = dense_sum(diagonal, weight, left, right, columns)
-    rhs = rng.standard_normal(dof)
+    rhs = np.random.default_rng(5).standard_normal(dof)
     with compiled(on):
-        where, half = banded.ordering(columns, dof)
-        ab = banded.band(diagonal, where, half)
-        banded.add(ab, half, where, weight, left, right, columns)
+        where, half, ab = assembled(columns, left, right, weight, diagonal)
         # the band in order: every entry of the dense sum, where the order puts it
         within = np.zeros((dof, dof))
         for i in range(dof):
@@ -118,15 +131,9 @@ def textbook_lu(dense: np.ndarray, half: int) -> tuple[np.ndarray, list[int]]:
 def test_the_band_factors_are_the_textbook_ones_to_the_bit(on: bool) -> None:
     # an unsymmetric band whose columns need swaps: the factors, the fill above the band included, are the ones
     # of the elimination written entry by entry, bit for bit (the compiled loop's layout changes no operation)
-    rng = np.random.default_rng(7)
     dof = 36
-    columns = rows(rng, 60, dof)[1]
-    left, right = rng.standard_normal((60, 6)), rng.standard_normal((60, 6))
-    weight, diagonal = rng.uniform(0.5, 2.0, 60), rng.uniform(0.01, 0.02, dof)
     with compiled(on):
-        where, half = banded.ordering(columns, dof)
-        ab = banded.band(diagonal, where, half)
-        banded.add(ab, half, where, weight, left, right, columns)
+        _, half, ab = assembled(*unsymmetric(7, 60, dof))
         ordered = np.zeros((dof, dof))
         for j in range(dof):
             for i in range(max(0, j - half), min(dof, j + half + 1)):
