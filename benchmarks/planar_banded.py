@@ -4,7 +4,8 @@ storage) and SuperLU (``scipy.sparse.linalg.splu``, a general sparse LU) on the 
 
 Per recorded step of ``tests/planar/data`` (``--steps`` picks some by name): the mode system a Newton round
 factors (``reference.ModeSystem``, the modes read at the recorded warm start), its movable degrees of freedom and
-the band's half width; µs to factor it and to solve with the factors, the median of interleaved repeats
+the band's half width; µs to add the rows' products into the band (``banded.add``: stackx's alone), to
+factor it and to solve with the factors, the median of interleaved repeats
 (``timing.interleaved``; each factorization on a fresh copy, made outside the timed span; Python's call into
 each included), and stackx's time over LAPACK's; ``backward``: the largest backward error of the three answers
 (``|A x - b| / (|A| |x| + |b|)``, infinity norms), rounding's size when each solved the same system; ``path
@@ -86,6 +87,11 @@ def measure(name: str, problem: ContactProblem, pn: np.ndarray, pt: np.ndarray, 
     def super_factor() -> Prepared:
         return lambda: splu(matrix)
 
+    def ours_add() -> Prepared:
+        fresh = banded.band(1.0 / system.inv, system.where, half)
+        weight = np.full(system.free.shape[0], 1.0 / system.proximal)
+        return lambda: banded.add(fresh, half, system.where, weight, system.g, system.j_rows, system.j_columns)
+
     def ours_solve() -> Prepared:
         return lambda: [banded.solve(ours, half, pivots, system.where, in_order) for _ in range(SOLVES)]
 
@@ -97,16 +103,18 @@ def measure(name: str, problem: ContactProblem, pn: np.ndarray, pt: np.ndarray, 
 
     with compiled(True):
         ours_factor()()  # compiled (or loaded) before the clock starts
-        timed = interleaved({"stackx factor": (ours_factor, 1), "LAPACK factor": (lapack_factor, 1),
-                             "SuperLU factor": (super_factor, 1), "stackx solve": (ours_solve, SOLVES),
+        timed = interleaved({"stackx add": (ours_add, 1), "stackx factor": (ours_factor, 1),
+                             "LAPACK factor": (lapack_factor, 1), "SuperLU factor": (super_factor, 1),
+                             "stackx solve": (ours_solve, SOLVES),
                              "LAPACK solve": (lapack_solve, SOLVES), "SuperLU solve": (super_solve, SOLVES)},
                             repeats)
         path = interleaved({"path": (lambda: lambda: central_path(
             system.values, system.columns, system.k, system.cone, system.v0, system.inv, system.fixed_u,
             system.target, None, (system.where, system.half)), 1)}, max(3, repeats // 8))["path"]
     us = {k: s.per_unit * 1e6 for k, s in timed.items()}
-    return (f"{name:32} {n:5} {half:4} {us['stackx factor']:9.0f} {us['LAPACK factor']:9.0f} "
-            f"{us['SuperLU factor']:9.0f} {us['stackx factor'] / us['LAPACK factor']:7.2f} "
+    return (f"{name:32} {n:5} {half:4} {us['stackx add']:7.0f} {us['stackx factor']:9.0f} "
+            f"{us['LAPACK factor']:9.0f} {us['SuperLU factor']:9.0f} "
+            f"{us['stackx factor'] / us['LAPACK factor']:7.2f} "
             f"{us['stackx solve']:8.1f} {us['LAPACK solve']:8.1f} {us['SuperLU solve']:8.1f} "
             f"{us['stackx solve'] / us['LAPACK solve']:7.2f} {agree:9.1e} {path.per_unit * 1e3:7.1f}")
 
@@ -116,8 +124,9 @@ def main() -> None:
     parser.add_argument("--steps", nargs="*", help="names of recorded steps (default: every one)")
     parser.add_argument("--repeats", type=int, default=41)
     args = parser.parse_args()
-    print(f"{'step':32} {'dof':>5} {'half':>4} {'factor µs: stackx':>19} {'LAPACK':>9} {'SuperLU':>9} "
-          f"{'÷LAPACK':>7} {'solve µs: stackx':>8} {'LAPACK':>8} {'SuperLU':>8} {'÷LAPACK':>7} {'backward':>9} {'path ms':>7}")
+    print(f"{'step':32} {'dof':>5} {'half':>4} {'add':>7} {'factor µs: stackx':>19} {'LAPACK':>9} {'SuperLU':>9} "
+          f"{'÷LAPACK':>7} {'solve µs: stackx':>8} {'LAPACK':>8} {'SuperLU':>8} {'÷LAPACK':>7} {'backward':>9} "
+          f"{'path ms':>7}")
     for name, problem, pn, pt in recorded():
         if not args.steps or name in args.steps:
             print(measure(name, problem, pn, pt, args.repeats), flush=True)

@@ -8,10 +8,11 @@ of degrees of freedom that share a row), every entry lies within a few rows of b
 width), with no object built per factorization, and every one of a step's 10 to 40 path iterations and tens
 of Newton rounds factors one. ``benchmarks.planar_banded`` times it on recorded steps against LAPACK's band LU
 (``dgbtrf``: the same algorithm and storage, through scipy) and SuperLU (a general sparse LU) on the same
-matrices, side by side: on three 20-row pyramid steps (630 unknowns, half width 35 to 44) 673 to 714 µs
-against LAPACK's 463 to 567 and SuperLU's 1,719 to 1,733 (1.2 to 1.5 times LAPACK's; 1.9 to 2.4 times before
-``factor`` copied each step's multipliers out of the band), and a solve with the factors 85 to 93 µs against
-55 to 63 and 92 to 104; on smaller steps (up to 165 unknowns) about LAPACK's time, Python's call included.
+matrices, side by side. On three 20-row pyramid steps and a 10-row one (630 and 165 unknowns, half width 20 to
+44) a factorization takes 1.1 to 1.55 times LAPACK's time (1.6 to 2.4 times before ``factor`` copied each
+step's multipliers out of the band) and a third of SuperLU's, a solve with the factors 1.25 to 1.55 times
+LAPACK's (1.5 to 1.95 before) and about SuperLU's; up to 120 unknowns a factorization, Python's call into
+each included, is faster than LAPACK's.
 
 **Pivoting.** A mode combination with a sliding point and every central path system is unsymmetric (a point's
 friction follows its normal impulse), and near the path's end its coupling can outgrow the symmetric part, so
@@ -128,20 +129,24 @@ def band(diagonal: np.ndarray, where: np.ndarray, half: int) -> np.ndarray:
 def add(ab: np.ndarray, half: int, where: np.ndarray, weight: np.ndarray, left: np.ndarray, right: np.ndarray,
         columns: np.ndarray) -> None:
     """``ab += sum_r weight_r left_r right_r^T`` (each row's six entries on its six columns, in the order
-    ``where``; a column ``len(ab)`` stands for none)."""
+    ``where``; a column ``len(ab)`` stands for none). A row's six places in the order are looked up once, not
+    once for each of its 36 products; the products are added in the same order."""
     dof = ab.shape[0]
     d = 2 * half
+    place = np.empty(6, np.int64)  # the row's columns in the order, -1 for none
     for r in range(columns.shape[0]):
         w = weight[r]
         if w == 0.0:
             continue
+        for i in range(6):
+            place[i] = where[columns[r, i]] if columns[r, i] < dof else -1
         for jj in range(6):
-            if columns[r, jj] < dof:
-                j = where[columns[r, jj]]
+            j = place[jj]
+            if j >= 0:
                 x = w * right[r, jj]
                 for i in range(6):
-                    if columns[r, i] < dof:
-                        ab[j, d + where[columns[r, i]] - j] += left[r, i] * x
+                    if place[i] >= 0:
+                        ab[j, d + place[i] - j] += left[r, i] * x
 
 
 @kernel
