@@ -8,11 +8,10 @@ of degrees of freedom that share a row), every entry lies within a few rows of b
 width), with no object built per factorization, and every one of a step's 10 to 40 path iterations and tens
 of Newton rounds factors one. ``benchmarks.planar_banded`` times it on recorded steps against LAPACK's band LU
 (``dgbtrf``: the same algorithm and storage, through scipy) and SuperLU (a general sparse LU) on the same
-matrices, side by side. On three 20-row pyramid steps and a 10-row one (630 and 165 unknowns, half width 20 to
-44) a factorization takes 1.1 to 1.55 times LAPACK's time (1.6 to 2.4 times before ``factor`` copied each
-step's multipliers out of the band) and a third of SuperLU's, a solve with the factors 1.25 to 1.55 times
-LAPACK's (1.5 to 1.95 before) and about SuperLU's; up to 120 unknowns a factorization, Python's call into
-each included, is faster than LAPACK's.
+matrices, side by side. On three 20-row pyramid steps and three 10-row ones (630 and 165 unknowns, half width
+20 to 44) a factorization takes 0.58 to 0.82 times LAPACK's time and 0.13 to 0.28 times SuperLU's, a solve with the
+factors 0.78 to 0.9 times LAPACK's and 0.3 to 0.4 times SuperLU's, Python's call into each included. Before
+the update was written for the compiler (``factor``), they took 1.6 to 2.4 and 1.5 to 1.95 times LAPACK's.
 
 **Pivoting.** A mode combination with a sliding point and every central path system is unsymmetric (a point's
 friction follows its normal impulse), and near the path's end its coupling can outgrow the symmetric part, so
@@ -154,11 +153,13 @@ def factor(ab: np.ndarray, half: int, pivots: np.ndarray) -> bool:
     """LU of the band in place, with row pivoting within it (``pivots[k]``: the row swapped with ``k``).
     False if a pivot is zero or not finite (a singular system; ``ab`` is then of no use).
 
-    Each step's multipliers are copied into an array of their own, and the columns they update are reached
-    through the band's flat buffer (``ab`` in C order, as ``band`` makes it, so that the flat view is ``ab``
-    itself): with both read from rows of ``ab``, the compiled update was not turned into vector instructions
-    (``benchmarks.planar_banded``). Every entry gets the same operations in the same order, so the factors are
-    the same to the bit."""
+    The elimination's update, where the time goes, is written for the compiler: each step's multipliers are
+    copied into an array of their own, and the entries they update are reached through the band's flat buffer
+    (``ab`` in C order, as ``band`` makes it, so that the flat view is ``ab`` itself) by unsigned offsets.
+    numba corrects a signed index that could be negative (Python's ``a[-1]``) on every access, and that
+    correction kept the loop from being turned into vector instructions; an unsigned one needs none. Every entry
+    gets the same operations in the same order, so the factors are the same to the bit (see
+    ``benchmarks.planar_banded`` for what it changed)."""
     n, width = ab.shape
     d = 2 * half
     flat = ab.reshape(-1)  # a view: ``ab`` is contiguous
@@ -179,14 +180,14 @@ def factor(ab: np.ndarray, half: int, pivots: np.ndarray) -> bool:
                 a, b = d + k - j, d + p - j
                 ab[j, a], ab[j, b] = ab[j, b], ab[j, a]
         pivot = ab[k, d]
-        below = last - k
+        below = np.uint64(last - k)
         for i in range(below):
             ab[k, d + 1 + i] /= pivot
             column[i] = ab[k, d + 1 + i]
         for j in range(k + 1, reach + 1):
             x = ab[j, d + k - j]
             if x != 0.0:
-                start = j * width + d + k + 1 - j  # entry (k + 1, j) in the flat buffer
+                start = np.uint64(j * width + d + k + 1 - j)  # entry (k + 1, j) in the flat buffer
                 for i in range(below):
                     flat[start + i] -= column[i] * x
     return True
@@ -195,8 +196,8 @@ def factor(ab: np.ndarray, half: int, pivots: np.ndarray) -> bool:
 @kernel
 def solve(ab: np.ndarray, half: int, pivots: np.ndarray, where: np.ndarray, rhs: np.ndarray) -> np.ndarray:
     """The answer of the factored system for ``rhs`` (in the degrees of freedom's own order), with a 0
-    appended for the column of no velocity. The factors are read through the band's flat buffer, each
-    column's stretch from its start and by a count from 0 (as ``factor``, and for the same reason)."""
+    appended for the column of no velocity. The factors are read through the band's flat buffer by unsigned
+    offsets, as ``factor`` reads them, and for the same reason."""
     n, width = ab.shape
     d = 2 * half
     flat = ab.reshape(-1)
@@ -209,17 +210,19 @@ def solve(ab: np.ndarray, half: int, pivots: np.ndarray, where: np.ndarray, rhs:
             x[k], x[p] = x[p], x[k]
         xk = x[k]
         if xk != 0.0:
-            start = k * width + d + 1  # entry (k + 1, k): L's column k below its diagonal
-            for i in range(min(n - 1, k + half) - k):
-                x[k + 1 + i] -= flat[start + i] * xk
+            start = np.uint64(k * width + d + 1)  # entry (k + 1, k): L's column k below its diagonal
+            below = np.uint64(k + 1)
+            for i in range(np.uint64(min(n - 1, k + half) - k)):
+                x[below + i] -= flat[start + i] * xk
     for j in range(n - 1, -1, -1):
         x[j] /= flat[j * width + d]
         xj = x[j]
         if xj != 0.0:
             top = max(0, j - d)
-            start = j * width + d + top - j  # entry (top, j): U's column j above its diagonal
-            for i in range(j - top):
-                x[top + i] -= flat[start + i] * xj
+            start = np.uint64(j * width + d + top - j)  # entry (top, j): U's column j above its diagonal
+            above = np.uint64(top)
+            for i in range(np.uint64(j - top)):
+                x[above + i] -= flat[start + i] * xj
     out = np.zeros(n + 1)
     for c in range(n):
         out[c] = x[where[c]]

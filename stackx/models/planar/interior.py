@@ -28,8 +28,8 @@ term (``sigma`` from how far the predictor could go), both on one factorization.
 eliminated in closed form, which leaves ``(M + sum J^T D J) dv = r`` with a 2 x 2 ``D`` per point; friction's
 dependence on the normal impulse makes ``D`` unsymmetric, so the system is factored with row pivoting, as a
 band (``banded``). Steps stop at 99.5% of the way to the nearest bound. The iterations run compiled
-(``walk``): on a 20-row pyramid's step a path takes 27 to 78 ms (``benchmarks.planar_banded``, three runs
-beside other work), where the same iterations in numpy around SuperLU took 167 to 190 ms.
+(``walk``): on a 20-row pyramid's step a path takes 27 to 48 ms (``benchmarks.planar_banded``), where the
+same iterations in numpy around SuperLU took 167 to 190 ms.
 
 **Where it stops.** Once ``tau`` is below ``TAU`` and the equations' residual below ``EQUATIONS``; or after
 ``ITERATIONS``; or when ``STALLED`` steps in a row went less than ``SHORT`` of the way, or ``tau`` fell by less

@@ -64,9 +64,9 @@ impulses), is below the tolerance; else the solve raises.
 **Speed.** Every system is a band: ``banded`` orders the movable degrees of freedom once per problem (reverse
 Cuthill-McKee) and factors each mode system and each central path iteration there, compiled, with row pivoting.
 ``benchmarks.planar_banded`` measures it on recorded steps beside LAPACK's band LU and SuperLU: on a 20-row
-pyramid's step (630 velocities, half width 35 to 44) a factorization takes 1.1 to 1.55 times LAPACK's time and
-a third of SuperLU's, and the central path 27 to 78 ms in three runs beside other work (where its iterations
-in numpy around SuperLU took 167 to 190 ms). Scipy remains for Lemke's walk (``pivoting``).
+pyramid's step (630 velocities, half width 35 to 44) a factorization takes 0.6 to 0.8 times LAPACK's time and
+0.17 to 0.28 times SuperLU's, and the central path 27 to 48 ms (where its iterations in numpy around SuperLU took
+167 to 190 ms). Scipy remains for Lemke's walk (``pivoting``).
 """
 
 from __future__ import annotations
