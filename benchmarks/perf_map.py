@@ -52,7 +52,8 @@ def write_map() -> tuple[Path, int]:
 
     starts: dict[int, str] = {}
     seen: set[int] = set()
-    for dispatcher in [o for o in gc.get_objects() if isinstance(o, CPUDispatcher)]:
+    # by type, not isinstance: a weak proxy among the objects whose referent is gone raises on isinstance
+    for dispatcher in [o for o in gc.get_objects() if issubclass(type(o), CPUDispatcher)]:
         for result in dispatcher.overloads.values():
             library = result.library
             if id(library) in seen:

@@ -3,6 +3,9 @@ it writes covers a function this process compiled."""
 
 from __future__ import annotations
 
+import gc
+import weakref
+
 import numpy as np
 import pytest
 
@@ -23,6 +26,11 @@ def test_the_map_names_a_function_compiled_here() -> None:
     def doubled_sum(x: np.ndarray) -> float:
         return 2.0 * x.sum()
 
+    class Gone:
+        pass
+
+    dead = weakref.proxy(Gone())  # a proxy whose object is gone, among the objects the map looks through
+    assert any(o is dead for o in gc.get_objects())
     assert doubled_sum(np.arange(4.0)) == 12.0
     path, count = write_map()
     try:
