@@ -36,11 +36,8 @@ def mode_band(problem: ContactProblem, pn: np.ndarray, pt: np.ndarray) -> tuple[
     system = ModeSystem(problem, kn, kt)
     m = problem.points
     modes = system.read(np.concatenate([pn / kn, pt / kt]))
-    system.factor(modes[:m], modes[m:2 * m], modes[2 * m:])  # sets the free rows and their G
-    ab = banded.band(1.0 / system.inv, system.where, system.half)
-    banded.add(ab, system.half, system.where, np.full(system.free.shape[0], 1.0 / system.proximal), system.g,
-               system.j_rows, system.j_columns)
-    return ab, system
+    system.factor(modes[:m], modes[m:2 * m], modes[2 * m:])  # chooses the free rows
+    return system.matrix(), system
 
 
 def measure(name: str, problem: ContactProblem, pn: np.ndarray, pt: np.ndarray, repeats: int) -> str:

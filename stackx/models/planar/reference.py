@@ -546,13 +546,18 @@ class ModeSystem:
         point = free[normal]
         g[normal] += (sign * self.mu * self.k[:m])[point][:, None] * self.values[m + point]
         self.g = g
-        self.factors = banded.band(1.0 / self.inv, self.where, self.half)
-        banded.add(self.factors, self.half, self.where, np.full(free.shape[0], 1.0 / self.proximal), g, self.j_rows,
-                   self.j_columns)
+        self.factors = self.matrix()
         self.pivots = np.zeros(self.dof, np.int64)
         if not banded.factor(self.factors, self.half, self.pivots):  # a singular mode system: back to sweeps
             self.factors = None
         self.sign = sign
+
+    def matrix(self) -> np.ndarray:
+        """The band of ``M + G J_F / d`` for the rows ``factor`` last chose, not yet factored."""
+        ab = banded.band(1.0 / self.inv, self.where, self.half)
+        banded.add(ab, self.half, self.where, np.full(self.free.shape[0], 1.0 / self.proximal), self.g, self.j_rows,
+                   self.j_columns)
+        return ab
 
     def step(self, q: np.ndarray, slide: dict[int, float] | None = None,
              center: np.ndarray | None = None) -> np.ndarray:
