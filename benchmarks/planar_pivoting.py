@@ -1,15 +1,15 @@
 """``python -m benchmarks.planar_pivoting``: what Lemke's walk (``stackx.models.planar.pivoting``) costs on
 recorded step problems, and what of the reference solve lands them.
 
-Per problem: its points; the walk (on the problem's own LCP up to ``pivoting.EXACT_POINTS`` points, else on
-the regularized one): pivots, LU factorizations, CPU ms, and the contract's residual of its answer (m/s);
+Per problem: its points; the walks ``pivoting.starts`` makes (``pivoting.plans``: on the problem's own LCP up to
+``pivoting.EXACT_POINTS`` points, else on the regularized one; covered by 1, then by the step's approach) up to
+the first that ends: its pivots, LU factorizations, cover and the contract's residual of its answer (m/s), and
+the CPU ms of the walks made;
 then ``reference.solve`` from the recorded warm start: the stage that landed (``Solution.attempt``: 0 the
 central path, 1 the warm start's Newton rounds, 2 the proximal point method, 3 Lemke's pivoting), its residual,
 and wall s. Problems: every step in ``tests/planar/data`` (``*.json``, ``*.npz``), or with
 ``--pickle FILE`` (repeatable) the steps of a list of records, each a dict with ``problem`` (the
-``ContactProblem`` fields), ``pn``, ``pt`` and ``step`` (``--steps`` picks some). Measured on 2 shared cores: a
-20-row pyramid's walk (800 to 925 points, 3,200 to 3,700 unknowns) takes 3,300 to 9,500 pivots, about 0.4 ms
-of CPU each, and ends within 1e-6 m/s.
+``ContactProblem`` fields), ``pn``, ``pt`` and ``step`` (``--steps`` picks some).
 """
 
 from __future__ import annotations
@@ -59,16 +59,19 @@ def pickled(path: str, steps: list[int] | None) -> list[tuple[str, ContactProble
 
 def measure(name: str, problem: ContactProblem, pn: np.ndarray, pt: np.ndarray) -> str:
     """One row of the table (see the module text)."""
-    exact = problem.points <= pivoting.EXACT_POINTS
-    lcp = pivoting.contact_lcp(problem, 0.0 if exact else pivoting.REGULARIZATION)
-    size = pivoting.PERTURBATIONS[0] if exact else pivoting.LARGE_PERTURBATION
+    lcp, walks = pivoting.plans(problem)
     start = time.process_time()
-    try:
-        walk = pivoting.walk(lcp.matrix, lcp.constant, size)
-        walked = (f"{walk.pivots:6d} {walk.factorizations:5d} {1e3 * (time.process_time() - start):8.0f} "
+    walked = f"{'ray':>6} {'':5} {'':>8} {'':9}"
+    for size, most, approach in walks:  # the walks ``pivoting.starts`` makes, to the first that ends
+        try:
+            walk = pivoting.walk(lcp.matrix, lcp.constant, size, most,
+                                 pivoting.approach_cover(lcp.constant) if approach else None)
+        except pivoting.RayEnd:
+            continue
+        walked = (f"{walk.pivots:6d} {walk.factorizations:5d} {'approach' if approach else '1':>8} "
                   f"{residual(problem, *lcp.impulses(walk.z)):9.1e}")
-    except pivoting.RayEnd:
-        walked = f"{'ray':>6} {'':5} {1e3 * (time.process_time() - start):8.0f} {'':9}"
+        break
+    walked += f" {1e3 * (time.process_time() - start):8.0f}"
     start = time.perf_counter()
     try:
         found = reference.solve(problem, pn, pt)
@@ -84,7 +87,7 @@ def main() -> None:
     parser.add_argument("--steps", type=int, nargs="+", default=None, help="the recorded steps to measure")
     args = parser.parse_args()
     problems = [row for path in args.pickle for row in pickled(path, args.steps)] if args.pickle else recorded()
-    print(f"{'problem':32} {'points':>6} {'pivots':>6} {'LUs':>5} {'walk ms':>8} {'walk res':>9} "
+    print(f"{'problem':32} {'points':>6} {'pivots':>6} {'LUs':>5} {'cover':>8} {'walk res':>9} {'walks ms':>8} "
           f"{'stage':>5} {'residual':>9} {'solve s':>7}")
     for name, problem, pn, pt in problems:
         print(measure(name, problem, pn, pt), flush=True)

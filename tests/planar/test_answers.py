@@ -13,6 +13,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from stackx.models.planar.problem import ContactProblem, residual
 from tests.planar.test_pivoting import FIELDS
@@ -75,3 +76,29 @@ def test_the_answers_benchmark_finds_one_answer_where_a_step_has_one() -> None:
     found = compare(str(Path(__file__).parents[2] / "configs" / "planar" / "ramp-slide.yaml"), 20, "planar-pgs", None)
     assert found["compared"] == 20 and found["missed"] == 0 and found["unsolved"] == 0
     assert found["apart"] == [0, 0] and found["largest"] < 1e-9
+
+
+def test_lemke_s_walk_covered_by_the_step_s_approach_lands_the_step_on_a_fourth_answer(
+        monkeypatch: pytest.MonkeyPatch) -> None:
+    """The same step: its central paths fold and the proximal point method stalls (9.5e-7 m/s at best). Lemke's
+    walk on its regularized LCP covered by 1 does not end within its pivots (it wanders, ``z0`` rising and
+    falling, no basis met twice); covered by the step's approach (``pivoting.approach_cover``) it ends within
+    1e-6 m/s, and Newton's rounds and the proximal point method land from there, on an answer of the conditions
+    whose velocities lie more than 1e-2 m/s from each of the three above."""
+    from stackx.models.planar import pivoting, reference
+
+    p, answers = _step()
+    data = np.load(Path(__file__).parent / "data" / "xpbd_pyramid20_answers_step.npz")
+    lcp, walks = pivoting.plans(p)
+    (size, most, approach), covered = walks
+    assert not approach and covered[2]
+    with pytest.raises(pivoting.RayEnd):
+        pivoting.walk(lcp.matrix, lcp.constant, size, most)
+    monkeypatch.setattr(pivoting, "plans", lambda problem: (lcp, [covered]))  # the walk above is not made again
+    monkeypatch.setattr(reference, "LEMKE_EARLY", p.points)  # pivoting first, before the proximal point method
+    sol = reference.solve(p, data["pn"], data["pt"], interior=False)
+    assert sol.attempt == reference.LEMKE and residual(p, sol.pn, sol.pt) < 1e-10
+    worst, velocity = _worst_violation(p, sol.pn, sol.pt)
+    assert worst < 1e-9
+    for key, (pn, pt) in answers.items():
+        assert np.abs(velocity - _worst_violation(p, pn, pt)[1]).max() > 1e-2, key

@@ -68,6 +68,52 @@ def test_a_walk_through_many_refactorizations_keeps_its_answer(monkeypatch: pyte
     assert w.min() > -1e-12 and answers[0].min() >= 0.0 and abs(answers[0] @ w) < 1e-10
 
 
+def test_a_basis_solve_through_its_lu_and_etas_solves_the_basis() -> None:
+    # 60 pivots into a walk on a recorded step (232 unknowns), the basis is held as the LU of the cold basis and
+    # 60 etas: B^-1 rhs from them solves B, the current basis built column by column from the tableau, dense;
+    # the compiled solve and the plain one (``STACKX_JIT=0``) give the same bits
+    from stackx.kernel import compiled, settings
+    from tests.planar.test_reference import _recorded
+
+    ((p, _, _),) = _recorded("domino_step")
+    lcp = contact_lcp(p)
+    matrix = sparse.csc_matrix(lcp.matrix)
+    n = lcp.constant.shape[0]
+    cover = pivoting.approach_cover(lcp.constant)
+    state = pivoting._Basis(matrix, cover)
+    state.factor()
+    x = lcp.constant + 1e-12 * np.abs(lcp.constant).max() * (1.0 + np.random.default_rng(0).random(n))
+    columns = (matrix.indptr.astype(np.int64), matrix.indices.astype(np.int64), matrix.data)
+    with compiled(True):
+        status, pivots, *_, state.count = pivoting.pivot_run(
+            *columns, cover, *state.triangles, state.eta_rows, state.etas, state.count, x, state.variables,
+            int(np.argmin(x / cover)), 2 * n, -cover, 0, 60, pivoting.PIVOT_TOLERANCE)
+    assert (status, pivots, state.count) == (pivoting.SPENT, 60, 60)
+    assert (state.variables >= n).sum() > 30  # most of the basis is no longer slack
+    rhs = np.random.default_rng(1).normal(size=n)
+    with compiled(True):
+        solved = state.solve(rhs)
+    basis = state.build().toarray()
+    assert np.abs(basis @ solved - rhs).max() < 1e-9 * np.abs(solved).max()
+    with settings({"STACKX_JIT": "0"}):
+        assert np.array_equal(state.solve(rhs), solved)
+
+
+def test_a_walk_plain_and_compiled_is_the_same_walk() -> None:
+    from stackx.kernel import settings
+    from tests.planar.test_reference import _recorded
+
+    ((p, _, _),) = _recorded("landing_step")
+    lcp = contact_lcp(p)
+    walks = []
+    for jit in ("0", "1"):  # STACKX_JIT: plain, compiled
+        with settings({"STACKX_JIT": jit}):
+            walks.append(walk(lcp.matrix, lcp.constant, 1e-12, cover=pivoting.approach_cover(lcp.constant)))
+    assert walks[0].pivots == walks[1].pivots > 20
+    assert np.array_equal(walks[0].z, walks[1].z)
+    assert residual(p, *lcp.impulses(walks[1].z)) < 1e-12
+
+
 def test_a_walk_gives_up_after_its_pivots_per_unknown() -> None:
     # w = z - 1 per row: each z_i enters once, after z0 (n + 1 pivots in all); with one pivot per unknown the walk
     # stops one short, with two it ends on z = 1

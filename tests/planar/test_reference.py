@@ -368,7 +368,9 @@ def test_the_fallback_s_newton_rounds_follow_a_drift(monkeypatch: pytest.MonkeyP
     # step 279 of pyramid-10 under planar-xpbd at 4 substeps, as the bench set it (222 points): no path lands it,
     # and the proximal point method's Newton rounds meet mode systems without an answer (held points closing a
     # loop whose targets disagree), whose proximal steps settle into a steady drift; followed until a held point
-    # is emptied, the rounds land. Without the drift followed, nothing lands (1.8e-9 m/s)
+    # is emptied, the rounds land. Without the drift followed, Lemke's walk covered by the step's approach lands
+    # it (on the problem's own LCP, on the answer itself); without both, nothing does (1.8e-9 m/s)
+    from stackx.models.planar import pivoting
     from tests.planar.test_pivoting import _recorded_npz
 
     p, pn, pt = _recorded_npz("xpbd_pyramid10_drift_step")
@@ -377,6 +379,15 @@ def test_the_fallback_s_newton_rounds_follow_a_drift(monkeypatch: pytest.MonkeyP
     assert np.array_equal(sol.velocity, velocities_after(p, sol.pn, sol.pt))
     assert reference.DRIFT > 0.0
     monkeypatch.setattr(reference, "DRIFT", 0.0)
+    pivoted = reference.solve(p, pn, pt)
+    assert residual(p, pivoted.pn, pivoted.pt) < 1e-10 and pivoted.attempt == reference.LEMKE
+    planned = pivoting.plans
+
+    def covered_by_one(problem: object) -> tuple:  # the walks covered by 1 alone, as before the approach
+        lcp, walks = planned(problem)
+        return lcp, [w for w in walks if not w[2]]
+
+    monkeypatch.setattr(pivoting, "plans", covered_by_one)
     with pytest.raises(ReferenceFailure) as missed:
         reference.solve(p, pn, pt)
     assert 1e-10 < missed.value.best < 1e-8

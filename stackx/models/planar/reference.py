@@ -26,8 +26,9 @@ own residual, and the answers walk to an exact solution; the regularized problem
 rounds do not leap where the true problem's modes read off a far answer give systems with answers at 1e3 m/s.
 Where the walk misses, Lemke's complementary pivoting on the Stewart-Trinkle formulation
 (``stackx.models.planar.pivoting``, ``LEMKE``), which cannot cycle and ends on an answer for this class of
-problem; Newton rounds take its answer to the exact one (on a problem over ``pivoting.EXACT_POINTS`` points its
-walk is on a regularized problem, and the walk of proximal points lands from there). On a problem of at most
+problem, covered first by 1 and then by the step's approach (``pivoting.approach_cover``), which ends where the
+first wanders; Newton rounds take its answer to the exact one (on a problem over ``pivoting.EXACT_POINTS`` points
+its walk is on a regularized problem, and the walk of proximal points lands from there). On a problem of at most
 ``LEMKE_EARLY`` points Lemke's walk costs milliseconds and comes first. Where the fallback's full Newton rounds
 miss, they are made again following drifts (``DRIFT``, ``mode_rows.proximal_steps``): where held points close a
 loop whose targets disagree, a round's mode system has no answer and its proximal steps settle into a steady
