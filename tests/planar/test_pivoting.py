@@ -225,3 +225,17 @@ def test_steps_every_newton_try_misses_are_landed_by_the_walk_on_their_own_lcp(
     with pytest.raises(reference.ReferenceFailure) as failure:
         reference.solve(p, pn, pt, interior=False)
     assert 1e-10 < failure.value.best < 1e-8
+
+
+def test_the_pivoting_benchmark_reports_the_walk_that_ended_and_the_stage_that_landed() -> None:
+    from benchmarks.planar_pivoting import measure
+    from tests.planar.test_reference import _recorded
+
+    ((p, pn, pt),) = _recorded("landing_step")
+    name, points, pivots, _, cover, walked, _, stage, solved, _ = measure("landing", p, pn, pt).split()
+    lcp, walks = pivoting.plans(p)
+    size, most, approach = walks[0]  # covered by 1, at the smallest perturbation: it ends on this step
+    assert not approach and (name, int(points), cover) == ("landing", p.points, "1")
+    assert int(pivots) == walk(lcp.matrix, lcp.constant, size, most).pivots
+    assert float(walked) < 1e-12
+    assert int(stage) in (reference.PATH, reference.WARM, reference.WALK, reference.LEMKE) and float(solved) < 1e-10
