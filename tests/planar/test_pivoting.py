@@ -83,10 +83,9 @@ def test_a_basis_solve_through_its_lu_and_etas_solves_the_basis() -> None:
     state = pivoting._Basis(matrix, cover)
     state.factor()
     x = lcp.constant + 1e-12 * np.abs(lcp.constant).max() * (1.0 + np.random.default_rng(0).random(n))
-    columns = (matrix.indptr.astype(np.int64), matrix.indices.astype(np.int64), matrix.data)
     with compiled(True):
         status, pivots, *_, state.count = pivoting.pivot_run(
-            *columns, cover, *state.triangles, state.eta_rows, state.etas, state.count, x, state.variables,
+            *state.columns, cover, *state.triangles, state.eta_rows, state.etas, state.count, x, state.variables,
             int(np.argmin(x / cover)), 2 * n, -cover, 0, 60, pivoting.PIVOT_TOLERANCE)
     assert (status, pivots, state.count) == (pivoting.SPENT, 60, 60)
     assert (state.variables >= n).sum() > 30  # most of the basis is no longer slack

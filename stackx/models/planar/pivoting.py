@@ -156,6 +156,7 @@ class _Basis:
         self.matrix = matrix  # M, CSC
         self.cover = cover  # d, the covering vector (positive)
         self.n = n = matrix.shape[0]
+        self.columns = (matrix.indptr.astype(np.int64), matrix.indices.astype(np.int64), matrix.data)  # M's CSC
         self.variables = np.arange(n)  # the cold basis: every slack
         self.triangles: tuple[np.ndarray, ...] = ()
         self.eta_rows = np.zeros(REFACTOR, np.int64)
@@ -166,15 +167,9 @@ class _Basis:
     def column(self, variable: int) -> np.ndarray:
         """The tableau column of a variable (dense): ``e_i`` for ``w_i``, ``-M_i`` for ``z_i``, ``-d`` for
         ``z0``."""
-        n = self.n
-        if variable == 2 * n:
-            return -self.cover
-        out = np.zeros(n)
-        if variable < n:
-            out[variable] = 1.0
-        else:
-            lo, hi = self.matrix.indptr[variable - n], self.matrix.indptr[variable - n + 1]
-            out[self.matrix.indices[lo:hi]] = -self.matrix.data[lo:hi]
+        out = np.empty(self.n)
+        with compiled(enabled()):
+            tableau_column(*self.columns, self.cover, variable, out)
         return out
 
     def build(self) -> object:
@@ -214,12 +209,6 @@ class _Basis:
         self.triangles = (lower.indptr.astype(np.uint64), lower.indices.astype(np.uint64), lower.data,
                           upper.indptr.astype(np.uint64), upper.indices.astype(np.uint64), upper.data,
                           upper.diagonal(), factors.perm_r.astype(np.uint64), factors.perm_c.astype(np.uint64))
-
-    def push(self, row: int, alpha: np.ndarray) -> None:
-        """Keep a pivot's eta: its row and the entering column's representation."""
-        self.eta_rows[self.count] = row
-        self.etas[self.count] = alpha
-        self.count += 1
 
     def solve(self, rhs: np.ndarray) -> np.ndarray:
         """``B^-1 rhs`` (FTRAN): the LU's triangles, then the etas in order, compiled."""
@@ -320,15 +309,14 @@ def walk(matrix: object, constant: np.ndarray, perturbation: float = PERTURBATIO
     x = perturbed.copy()
     artificial = 2 * n
     basis = state.variables
-    columns = (matrix.indptr.astype(np.int64), matrix.indices.astype(np.int64), matrix.data)
     # z0 enters: its column's representation is -d, the row whose value d covers least leaves
     row, entering, alpha = int(np.argmin(x / cover)), artificial, -cover
     pivots, most = 0, pivots_each * n
     while True:
         with compiled(enabled()):
-            status, pivots, row, left, state.count = pivot_run(*columns, cover, *state.triangles, state.eta_rows,
-                                                               state.etas, state.count, x, basis, row, entering,
-                                                               alpha, pivots, most, PIVOT_TOLERANCE)
+            status, pivots, row, left, state.count = pivot_run(
+                *state.columns, cover, *state.triangles, state.eta_rows, state.etas, state.count, x, basis, row,
+                entering, alpha, pivots, most, PIVOT_TOLERANCE)
         if status == ENDED:
             return _end(matrix, constant, state, x, pivots)
         if status == RAY:
@@ -347,6 +335,24 @@ def walk(matrix: object, constant: np.ndarray, perturbation: float = PERTURBATIO
 
 
 @kernel
+def tableau_column(m_ptr: np.ndarray, m_rows: np.ndarray, m_values: np.ndarray, cover: np.ndarray, variable: int,
+                   out: np.ndarray) -> None:
+    """The tableau column of a variable into ``out`` (dense): ``e_i`` for ``w_i``, ``-M_i`` for ``z_i`` (``M`` as
+    its CSC arrays), ``-d`` for ``z0``."""
+    n = out.shape[0]
+    if variable == 2 * n:
+        for i in range(n):
+            out[i] = -cover[i]
+        return
+    out[:] = 0.0
+    if variable < n:
+        out[variable] = 1.0
+    else:
+        for k in range(m_ptr[variable - n], m_ptr[variable - n + 1]):
+            out[m_rows[k]] = -m_values[k]
+
+
+@kernel
 def pivot_run(m_ptr: np.ndarray, m_rows: np.ndarray, m_values: np.ndarray, cover: np.ndarray, l_ptr: np.ndarray,
               l_rows: np.ndarray, l_values: np.ndarray, u_ptr: np.ndarray, u_rows: np.ndarray, u_values: np.ndarray,
               u_diagonal: np.ndarray, perm_r: np.ndarray, perm_c: np.ndarray, eta_rows: np.ndarray, etas: np.ndarray,
@@ -358,7 +364,7 @@ def pivot_run(m_ptr: np.ndarray, m_rows: np.ndarray, m_values: np.ndarray, cover
     (``SPENT``). Returns ``(status, pivots, row, left, count)``: the pivots done in all, the next pivot's row,
     the variable that left last and the etas kept. Each pivot: the step to the leaving row (after the first, a
     basic value that rounding left below zero leaves at zero: the step is never taken backwards), the eta
-    kept, the complement of the variable that left enters, its column ``e_i``, ``-M_i`` or ``-d`` solved
+    kept, the complement of the variable that left enters, its column (``tableau_column``) solved
     (``substitute``) and the ratio test (``leaving``). ``M`` comes as its CSC arrays."""
     n = x.shape[0]
     artificial = 2 * n
@@ -380,16 +386,7 @@ def pivot_run(m_ptr: np.ndarray, m_rows: np.ndarray, m_values: np.ndarray, cover
         if count >= etas.shape[0]:
             return FULL, pivots, row, left, count
         entering = left + n if left < n else left - n
-        if entering == artificial:
-            for i in range(n):
-                column[i] = -cover[i]
-        else:
-            column[:] = 0.0
-            if entering < n:
-                column[entering] = 1.0
-            else:
-                for k in range(m_ptr[entering - n], m_ptr[entering - n + 1]):
-                    column[m_rows[k]] = -m_values[k]
+        tableau_column(m_ptr, m_rows, m_values, cover, entering, column)
         alpha[:] = substitute(l_ptr, l_rows, l_values, u_ptr, u_rows, u_values, u_diagonal, perm_r, perm_c,
                               eta_rows, etas, count, column)
         row = leaving(x, alpha, basis, artificial, tolerance)
