@@ -59,15 +59,9 @@ def pickled(path: str, steps: list[int] | None) -> list[tuple[str, ContactProble
 
 def measure(name: str, problem: ContactProblem, pn: np.ndarray, pt: np.ndarray) -> str:
     """One row of the table (see the module text)."""
-    lcp, walks = pivoting.plans(problem)
     start = time.process_time()
     walked = f"{'ray':>6} {'':5} {'':>8} {'':9}"
-    for size, most, approach in walks:  # the walks ``pivoting.starts`` makes, to the first that ends
-        try:
-            walk = pivoting.walk(lcp.matrix, lcp.constant, size, most,
-                                 pivoting.approach_cover(lcp.constant) if approach else None)
-        except pivoting.RayEnd:
-            continue
+    for lcp, walk, approach in pivoting.ended_walks(problem):  # the walks ``starts`` makes, to the first that ends
         walked = (f"{walk.pivots:6d} {walk.factorizations:5d} {'approach' if approach else '1':>8} "
                   f"{residual(problem, *lcp.impulses(walk.z)):9.1e}")
         break

@@ -86,7 +86,7 @@ def test_a_basis_solve_through_its_lu_and_etas_solves_the_basis() -> None:
     with compiled(True):
         status, pivots, *_, state.count = pivoting.pivot_run(
             *state.columns, cover, *state.triangles, state.eta_rows, state.etas, state.count, x, state.variables,
-            int(np.argmin(x / cover)), 2 * n, -cover, 0, 60, pivoting.PIVOT_TOLERANCE)
+            int(np.argmin(x / cover)), 2 * n, -cover, False, 0, 60, pivoting.PIVOT_TOLERANCE)
     assert (status, pivots, state.count) == (pivoting.SPENT, 60, 60)
     assert (state.variables >= n).sum() > 30  # most of the basis is no longer slack
     rhs = np.random.default_rng(1).normal(size=n)

@@ -164,14 +164,6 @@ class _Basis:
         self.count = 0  # etas since the last factorization
         self.factorizations = 0
 
-    def column(self, variable: int) -> np.ndarray:
-        """The tableau column of a variable (dense): ``e_i`` for ``w_i``, ``-M_i`` for ``z_i``, ``-d`` for
-        ``z0``."""
-        out = np.empty(self.n)
-        with compiled(enabled()):
-            tableau_column(*self.columns, self.cover, variable, out)
-        return out
-
     def build(self) -> object:
         """The basis matrix ``B`` (CSC), assembled from ``M``'s arrays without a sparse product."""
         from scipy import sparse
@@ -303,7 +295,7 @@ def walk(matrix: object, constant: np.ndarray, perturbation: float = PERTURBATIO
     cover = np.ones(n) if cover is None else np.asarray(cover, np.float64)
     state = _Basis(matrix, cover)
     state.factor()
-    scale = max(float(np.abs(constant).max()), 1e-12)
+    scale = _scale(constant)
     rho = 1.0 + np.random.default_rng(0).random(n)  # fixed, so the same problem walks the same way
     perturbed = constant + perturbation * scale * rho
     x = perturbed.copy()
@@ -311,27 +303,21 @@ def walk(matrix: object, constant: np.ndarray, perturbation: float = PERTURBATIO
     basis = state.variables
     # z0 enters: its column's representation is -d, the row whose value d covers least leaves
     row, entering, alpha = int(np.argmin(x / cover)), artificial, -cover
-    pivots, most = 0, pivots_each * n
+    pivots, most, resumed = 0, pivots_each * n, False
     while True:
         with compiled(enabled()):
-            status, pivots, row, left, state.count = pivot_run(
+            status, pivots, row, entering, state.count = pivot_run(
                 *state.columns, cover, *state.triangles, state.eta_rows, state.etas, state.count, x, basis, row,
-                entering, alpha, pivots, most, PIVOT_TOLERANCE)
+                entering, alpha, resumed, pivots, most, PIVOT_TOLERANCE)
         if status == ENDED:
             return _end(matrix, constant, state, x, pivots)
         if status == RAY:
             raise RayEnd(f"Lemke's walk left on a ray after {pivots} pivots")
         if status == SPENT:
             raise RayEnd(f"Lemke's walk did not end in {most} pivots")
-        # the etas are full: the basis factored afresh, the values recomputed, and the walk goes on
+        # the etas are full: the basis factored afresh and the values recomputed, and the walk goes on from there
         state.factor()
-        x = state.solve(perturbed)
-        entering = left + n if left < n else left - n
-        alpha = state.solve(state.column(entering))
-        with compiled(enabled()):
-            row = leaving(x, alpha, basis, artificial, PIVOT_TOLERANCE)
-        if row < 0:
-            raise RayEnd(f"Lemke's walk left on a ray after {pivots} pivots")
+        x, resumed = state.solve(perturbed), True
 
 
 @kernel
@@ -356,21 +342,31 @@ def tableau_column(m_ptr: np.ndarray, m_rows: np.ndarray, m_values: np.ndarray, 
 def pivot_run(m_ptr: np.ndarray, m_rows: np.ndarray, m_values: np.ndarray, cover: np.ndarray, l_ptr: np.ndarray,
               l_rows: np.ndarray, l_values: np.ndarray, u_ptr: np.ndarray, u_rows: np.ndarray, u_values: np.ndarray,
               u_diagonal: np.ndarray, perm_r: np.ndarray, perm_c: np.ndarray, eta_rows: np.ndarray, etas: np.ndarray,
-              count: int, x: np.ndarray, basis: np.ndarray, row: int, entering: int, alpha: np.ndarray, pivots: int,
-              most: int, tolerance: float) -> tuple[int, int, int, int, int]:
-    """Lemke's pivots from the one at ``row`` with ``entering`` (column representation ``alpha``) on, in place
-    on the basic values ``x``, the ``basis`` and the etas, until ``z0`` leaves (``ENDED``), the etas are full
-    (``FULL``: the caller factors afresh), no row limits a step (``RAY``) or ``most`` pivots are done
-    (``SPENT``). Returns ``(status, pivots, row, left, count)``: the pivots done in all, the next pivot's row,
-    the variable that left last and the etas kept. Each pivot: the step to the leaving row (after the first, a
-    basic value that rounding left below zero leaves at zero: the step is never taken backwards), the eta
-    kept, the complement of the variable that left enters, its column (``tableau_column``) solved
-    (``substitute``) and the ratio test (``leaving``). ``M`` comes as its CSC arrays."""
+              count: int, x: np.ndarray, basis: np.ndarray, row: int, entering: int, alpha: np.ndarray,
+              resumed: bool, pivots: int, most: int, tolerance: float) -> tuple[int, int, int, int, int]:
+    """Lemke's pivots, in place on the basic values ``x``, the ``basis`` and the etas, from the one at ``row``
+    with ``entering`` (column representation ``alpha``) on; ``resumed``: ``entering`` is yet to be solved for and
+    its row found (after a factorization). Until ``z0`` leaves (``ENDED``), the etas are full (``FULL``: the
+    caller factors afresh and resumes), no row limits a step (``RAY``) or ``most`` pivots are done (``SPENT``).
+    Returns ``(status, pivots, row, entering, count)``: the pivots done in all, the next pivot's row and
+    entering variable, and the etas kept. Each pivot: the step to the leaving row (after the first, a basic value
+    that rounding left below zero leaves at zero: the step is never taken backwards), the eta kept, the
+    complement of the variable that left enters, its column (``tableau_column``) solved (``substitute``) and the
+    ratio test (``leaving``). ``M`` comes as its CSC arrays."""
     n = x.shape[0]
     artificial = 2 * n
-    left = -1
     column = np.empty(n)
-    while pivots < most:
+    while True:
+        if resumed:
+            tableau_column(m_ptr, m_rows, m_values, cover, entering, column)
+            alpha[:] = substitute(l_ptr, l_rows, l_values, u_ptr, u_rows, u_values, u_diagonal, perm_r, perm_c,
+                                  eta_rows, etas, count, column)
+            row = leaving(x, alpha, basis, artificial, tolerance)
+            if row < 0:
+                return RAY, pivots, row, entering, count
+        resumed = True
+        if pivots >= most:
+            return SPENT, pivots, row, entering, count
         step = (x[row] if pivots == 0 else max(x[row], 0.0)) / alpha[row]
         for i in range(n):
             x[i] -= step * alpha[i]
@@ -382,17 +378,10 @@ def pivot_run(m_ptr: np.ndarray, m_rows: np.ndarray, m_values: np.ndarray, cover
         basis[row] = entering
         pivots += 1
         if left == artificial:
-            return ENDED, pivots, row, left, count
-        if count >= etas.shape[0]:
-            return FULL, pivots, row, left, count
+            return ENDED, pivots, row, entering, count
         entering = left + n if left < n else left - n
-        tableau_column(m_ptr, m_rows, m_values, cover, entering, column)
-        alpha[:] = substitute(l_ptr, l_rows, l_values, u_ptr, u_rows, u_values, u_diagonal, perm_r, perm_c,
-                              eta_rows, etas, count, column)
-        row = leaving(x, alpha, basis, artificial, tolerance)
-        if row < 0:
-            return RAY, pivots, row, left, count
-    return SPENT, pivots, row, left, count
+        if count >= etas.shape[0]:
+            return FULL, pivots, row, entering, count
 
 
 def _end(matrix: object, constant: np.ndarray, state: _Basis, walked: np.ndarray, pivots: int) -> Walk:
@@ -416,8 +405,12 @@ def _end(matrix: object, constant: np.ndarray, state: _Basis, walked: np.ndarray
 def approach_cover(constant: np.ndarray) -> np.ndarray:
     """The covering vector that scales the step's approaches (see the module text): ``-q`` where ``q`` is
     negative, at least ``COVER_FLOOR`` times the largest ``|q|``."""
-    scale = max(float(np.abs(constant).max()), 1e-12)
-    return np.maximum(-constant, COVER_FLOOR * scale)
+    return np.maximum(-constant, COVER_FLOOR * _scale(constant))
+
+
+def _scale(constant: np.ndarray) -> float:
+    """The scale of ``q`` the perturbation and the approach's floor are shares of: its largest ``|q|``."""
+    return max(float(np.abs(constant).max()), 1e-12)
 
 
 def plans(problem: ContactProblem) -> tuple[ContactLCP, list[tuple[float, int, bool]]]:
@@ -434,13 +427,20 @@ def plans(problem: ContactProblem) -> tuple[ContactLCP, list[tuple[float, int, b
                                                   (LARGE_PERTURBATION, COVERED_PIVOTS, True)]
 
 
-def starts(problem: ContactProblem) -> Iterator[tuple[np.ndarray, np.ndarray]]:
-    """Impulses ``(pn, pt)`` from Lemke's walks (``plans``), one walk at a time (the caller stops once one
-    lands), each walk that ended, for the caller to take to the exact answer of their modes and check."""
+def ended_walks(problem: ContactProblem) -> Iterator[tuple[ContactLCP, Walk, bool]]:
+    """The walks of ``plans`` that ended, one at a time as they are made: the LCP, the walk, and whether it was
+    covered by the approach."""
     lcp, walks = plans(problem)
     for size, most, approach in walks:
         try:
-            z = walk(lcp.matrix, lcp.constant, size, most, approach_cover(lcp.constant) if approach else None).z
+            ended = walk(lcp.matrix, lcp.constant, size, most, approach_cover(lcp.constant) if approach else None)
         except RayEnd:
             continue
-        yield lcp.impulses(z)
+        yield lcp, ended, approach
+
+
+def starts(problem: ContactProblem) -> Iterator[tuple[np.ndarray, np.ndarray]]:
+    """Impulses ``(pn, pt)`` from Lemke's walks (``ended_walks``), one walk at a time (the caller stops once one
+    lands), for the caller to take to the exact answer of their modes and check."""
+    for lcp, ended, _ in ended_walks(problem):
+        yield lcp.impulses(ended.z)
