@@ -6,9 +6,9 @@ Per problem: its points; the walks ``pivoting.starts`` makes (``pivoting.plans``
 the first that ends: its pivots, LU factorizations, cover and the contract's residual of its answer (m/s), and
 the CPU ms of the walks made;
 then ``reference.solve`` from the recorded warm start: the stage that landed (``Solution.attempt``: 0 the
-central path, 1 the warm start's Newton rounds, 2 the proximal point method, 3 Lemke's pivoting), its residual,
-and wall s. Problems: every step in ``tests/planar/data`` (``*.json``, ``*.npz``), or with
-``--pickle FILE`` (repeatable) the steps of a list of records, each a dict with ``problem`` (the
+central path, 1 the warm start's Newton rounds, 2 the proximal point method, 3 Lemke's pivoting, 4 Lemke's walk
+on the points in doubt), its residual, and wall s. Problems: every step in ``tests/planar/data`` (``*.json``,
+``*.npz``), or with ``--pickle FILE`` (repeatable) the steps of a list of records, each a dict with ``problem`` (the
 ``ContactProblem`` fields), ``pn``, ``pt`` and ``step`` (``--steps`` picks some).
 """
 

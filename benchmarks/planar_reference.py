@@ -53,7 +53,7 @@ from stackx.bench.criteria import Criteria
 from stackx.kernel import compiled
 from stackx.models.planar import error as planar_log
 from stackx.models.planar import reference, step_problem
-from stackx.models.planar.reference import LEMKE, PATH, WALK, WARM
+from stackx.models.planar.reference import DOUBT, LEMKE, PATH, WALK, WARM
 from stackx.models.planar.error import StepLog
 from stackx.run.runner import run_experiment
 
@@ -255,7 +255,7 @@ def bench_main(path: str, steps: int | None) -> None:
               f"{1e6 * r['own'] / n:>9.0f}{r['unsolved']:>9.0f}{r['failed']:>9.1f}")
     print(f"solved steps by what landed them (``Solution.attempt``): {landed.get(PATH, 0)} the central path, "
           f"{landed.get(WARM, 0)} a warm start's Newton rounds, {landed.get(WALK, 0)} the proximal point method, "
-          f"{landed.get(LEMKE, 0)} Lemke's pivoting")
+          f"{landed.get(DOUBT, 0)} Lemke's walk on the points in doubt, {landed.get(LEMKE, 0)} Lemke's pivoting")
 
 
 def line(name: str, m: dict[str, float]) -> str:

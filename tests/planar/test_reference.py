@@ -289,7 +289,7 @@ def test_a_pile_of_hair_gaps_is_solved_by_the_path_and_by_the_proximal_point_met
     assert sol.attempt == reference.WALK
 
 
-def test_a_quick_solve_is_the_walk_alone_cut_short(monkeypatch: pytest.MonkeyPatch) -> None:
+def test_a_quick_solve_makes_no_walk_on_the_whole_problem(monkeypatch: pytest.MonkeyPatch) -> None:
     from stackx.models.planar import pivoting
 
     (p, pn, pt), = _recorded("xpbd_pyramid_step")
@@ -299,7 +299,7 @@ def test_a_quick_solve_is_the_walk_alone_cut_short(monkeypatch: pytest.MonkeyPat
         raise AssertionError("a quick solve pivoted")
 
     monkeypatch.setattr(pivoting, "starts", refused)
-    monkeypatch.setattr(reference, "SETTLE_QUICK", 5)
+    monkeypatch.setattr(reference, "SETTLE_ROUNDS", 5)
     with pytest.raises(ReferenceFailure, match=r"by the proximal point method \("):
         solve(p, pn, pt, quick=True, interior=False)
 

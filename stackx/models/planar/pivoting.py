@@ -125,17 +125,28 @@ def contact_lcp(problem: ContactProblem, regularization: float = 0.0) -> Contact
     kn, kt = effective_masses(problem)
     jac = jacobian(problem)
     delassus = (jac.multiply(inverse_masses(problem)[None, :]) @ jac.T) @ sparse.diags(np.concatenate([kn, kt]))
-    delassus = sparse.csr_matrix(delassus + regularization * sparse.identity(2 * m))
+    delassus = delassus + regularization * sparse.identity(2 * m)
+    matrix, constant = assembled(delassus, jac @ problem.velocity.reshape(-1), problem.target,
+                                 problem.friction * kn / kt)
+    return ContactLCP(matrix, constant, kn, kt)
+
+
+def assembled(delassus: object, free: np.ndarray, target: np.ndarray, cone: np.ndarray) -> tuple[object, np.ndarray]:
+    """``(M, q)`` of the formulation (see the module text) for ``m`` points: ``delassus`` the scaled ``W K``
+    (``2m x 2m``, sparse or dense, normals first), ``free`` the rows' velocities with no impulse, ``target``
+    the normals' target speeds, ``cone`` each point's friction bound in scaled units (``mu kn / kt``)."""
+    from scipy import sparse
+
+    m = target.shape[0]
+    delassus = sparse.csr_matrix(delassus)
     nn, nt = delassus[:m, :m], delassus[:m, m:]
     tn, tt = delassus[m:, :m], delassus[m:, m:]
     one = sparse.identity(m, format="csr")
     matrix = sparse.bmat([[nn, nt, -nt, None],
                           [tn, tt, -tt, one],
                           [-tn, -tt, tt, one],
-                          [sparse.diags(problem.friction * kn / kt), -one, -one, None]], format="csc")
-    free = jac @ problem.velocity.reshape(-1)
-    constant = np.concatenate([free[:m] - problem.target, free[m:], -free[m:], np.zeros(m)])
-    return ContactLCP(matrix, constant, kn, kt)
+                          [sparse.diags(cone), -one, -one, None]], format="csc")
+    return matrix, np.concatenate([free[:m] - target, free[m:], -free[m:], np.zeros(m)])
 
 
 @dataclass

@@ -24,7 +24,11 @@ answer the paths' Newton rounds reached: each outer round solves the *regularize
 carry ``d (q - center)`` with the last round's answer as the center, by Newton rounds with a line search on its
 own residual, and the answers walk to an exact solution; the regularized problem is well conditioned, so its
 rounds do not leap where the true problem's modes read off a far answer give systems with answers at 1e3 m/s.
-Where the walk misses, Lemke's complementary pivoting on the Stewart-Trinkle formulation
+Where the walk misses on a problem over ``pivoting.EXACT_POINTS`` points, Lemke's walk on the points whose mode
+is in doubt at the closest answer, the clearly sticking points held rigid (``stackx.models.planar.doubt``,
+``DOUBT``): a problem of a tenth to a third of the points, walked in a second or two, whose answer Newton rounds
+and proximal points take to the exact one. Where that misses too (but for a quick solve, which stops here), Lemke's
+complementary pivoting on the Stewart-Trinkle formulation
 (``stackx.models.planar.pivoting``, ``LEMKE``), which cannot cycle and ends on an answer for this class of
 problem, covered first by 1 and then by the step's approach (``pivoting.approach_cover``), which ends where the
 first wanders; Newton rounds take its answer to the exact one (on a problem over ``pivoting.EXACT_POINTS`` points
@@ -79,7 +83,8 @@ from functools import partial
 import numpy as np
 
 from stackx.kernel import compiled, enabled, kernel
-from stackx.models.planar import banded, mode_rows
+from stackx.models.planar import banded, mode_rows, pivoting
+from stackx.models.planar.doubt import doubtful_start
 from stackx.models.planar.interior import central_path
 from stackx.models.planar.problem import (GROUND, ContactProblem, effective_masses, inverse_masses, jacobian_rows,
                                           residual, velocities_after)
@@ -101,13 +106,12 @@ SETTLE_SHRINK = 0.3  # d shrinks by this after a round whose regularized problem
 SETTLE_EASY = 4
 SETTLE_FLOOR = 1e-9  # the smallest d
 SETTLE_ROUNDS = 300  # most outer rounds (each a regularized problem)
-SETTLE_QUICK = 60  # most outer rounds in a quick solve (the walks that land mostly take fewer than 50)
 SETTLE_NEWTON = 20  # most Newton rounds per regularized problem
 SETTLE_SHARE = 0.1  # a regularized problem is solved once its residual is this share of the contract's
 SETTLE_STEP = 1e-4  # the shortest step of its line search
 POLISH = 1e-6  # m/s: below this contract residual, the proximal point method's full Newton rounds try to land
 FRICTION_RAMP = (0.0, 0.25, 0.5, 0.75, 1.0)  # shares of the friction of the central paths in stages
-PATH, WARM, WALK, LEMKE = 0, 1, 2, 3  # what landed a step (``Solution.attempt``)
+PATH, WARM, WALK, LEMKE, DOUBT = 0, 1, 2, 3, 4  # what landed a step (``Solution.attempt``)
 
 
 class ReferenceFailure(RuntimeError):
@@ -127,7 +131,7 @@ class Solution:
     """A solved problem: impulses per point, the bodies' velocities after, the residual (m/s), and what it
     took (Newton ``rounds`` of the stage that landed, Gauss-Seidel ``sweeps`` in all, and which stage landed,
     ``attempt``: ``PATH`` the central path, ``WARM`` the warm start's Newton rounds, ``WALK`` the proximal point
-    method, ``LEMKE`` Lemke's pivoting)."""
+    method, ``LEMKE`` Lemke's pivoting, ``DOUBT`` Lemke's walk on the points in doubt)."""
 
     pn: np.ndarray
     pt: np.ndarray
@@ -196,9 +200,9 @@ def solve(problem: ContactProblem, pn: np.ndarray | None = None, pt: np.ndarray 
           interior: bool = True) -> Solution:
     """Solve ``problem`` to ``residual < tolerance`` (m/s), starting from impulses ``pn``, ``pt`` (a warm
     start, e.g. the last step's by feature; zeros when None): the warm start's own Newton rounds, the central
-    path, and where no path lands, the fallback (see the module text). ``quick``: the fallback's walk only,
-    cut to ``SETTLE_QUICK`` rounds (see ``step_problem.ReferenceStep``: after steps in a row that nothing
-    landed). ``interior=False`` leaves the paths out (the fallback alone). Raises ``ReferenceFailure`` when
+    path, and where no path lands, the fallback (see the module text). ``quick``: the fallback without Lemke's
+    walks on the whole problem, which cost the most (see ``step_problem.ReferenceStep``: after steps in a row
+    that nothing landed). ``interior=False`` leaves the paths out (the fallback alone). Raises ``ReferenceFailure`` when
     nothing gets there."""
     m, n = problem.points, problem.bodies
     pn = np.zeros(m) if pn is None else np.array(pn, dtype=np.float64)
@@ -346,7 +350,7 @@ def solve(problem: ContactProblem, pn: np.ndarray | None = None, pt: np.ndarray 
         best = polished = reached = system.merit(q)  # reached: the contract's residual at q
         tried = None  # the modes the last full rounds started from
         spent = 0  # Newton rounds of the regularized problems
-        for _ in range(SETTLE_QUICK if quick else SETTLE_ROUNDS):
+        for _ in range(SETTLE_ROUNDS):
             center = q
             aim = max(TOLERANCE * 1e-3, SETTLE_SHARE * reached)
             now = system.merit(q, center)
@@ -380,27 +384,36 @@ def solve(problem: ContactProblem, pn: np.ndarray | None = None, pt: np.ndarray 
                     return found, found.residual
         return None, best
 
-    def pivot() -> tuple[Solution | None, float]:
-        """Lemke's pivoting (``stackx.models.planar.pivoting``), each answer it ends on taken to the exact one by
-        full Newton rounds; on a large problem, whose walk is on a regularized problem, then by the proximal
-        point method from there."""
-        from stackx.models.planar import pivoting
+    def start_from(pn_start: np.ndarray, pt_start: np.ndarray) -> tuple[Solution | None, float]:
+        """Impulses from a walk taken to the exact answer: as they are if they solve the step (a Newton round
+        there reads modes on their boundaries and can leave it), else by full Newton rounds, and on a large
+        problem (whose walks do not solve it exactly) then by the proximal point method from there."""
+        q = np.concatenate([pn_start / kn, pt_start / kt])
+        newton.modes = None
+        found = landed(q, 0)
+        reached = np.inf
+        if found is None:
+            found, reached = polish(q, 2 * rounds)
+        if found is None and m > pivoting.EXACT_POINTS:
+            found, reached = settle(q, 2 * rounds, PIVOT_SETTLE)
+        return (found, found.residual) if found is not None else (None, reached)
 
+    def pivot() -> tuple[Solution | None, float]:
+        """Lemke's pivoting (``stackx.models.planar.pivoting``), each answer it ends on taken to the exact one
+        (``start_from``)."""
         best = np.inf
         for pn_start, pt_start in pivoting.starts(problem):
-            q = np.concatenate([pn_start / kn, pt_start / kt])
-            newton.modes = None
-            # a walk on the problem's own LCP may end on its answer, taken as it is: a Newton round there reads
-            # modes on their boundaries and can leave it
-            found = landed(q, 0)
-            if found is None:
-                found, reached = polish(q, 2 * rounds)
-            if found is None and m > pivoting.EXACT_POINTS:
-                found, reached = settle(q, 2 * rounds, PIVOT_SETTLE)
+            found, reached = start_from(pn_start, pt_start)
             if found is not None:
-                return found, found.residual
+                return found, reached
             best = min(best, reached)
         return None, best
+
+    def in_doubt() -> tuple[Solution | None, float]:
+        """Lemke's walk on the points whose mode is in doubt at the closest answer yet, the others held
+        (``stackx.models.planar.doubt``), taken to the exact answer (``start_from``)."""
+        start = None if closest[1] is None else doubtful_start(problem, mode_system(PROXIMAL), closest[1])
+        return (None, np.inf) if start is None else start_from(*start)
 
     warm = np.concatenate([pn / kn, pt / kt])
     # a warm start near the answer (a pile at rest: the last step's answer is this one's) lands in a round or two
@@ -441,9 +454,10 @@ def solve(problem: ContactProblem, pn: np.ndarray | None = None, pt: np.ndarray 
     # drifts (``DRIFT``)
     polishers.append(mode_system(PROXIMAL, drift=DRIFT))
     begun = warm if closest[1] is None else closest[1]  # the closest answer the paths' Newton rounds reached
-    fallback = [(WALK, partial(settle, begun, 2 * rounds)), (LEMKE, pivot)]
+    doubt = m > pivoting.EXACT_POINTS  # a large problem: the walk on its points in doubt, before the whole's
+    fallback = [(WALK, partial(settle, begun, 2 * rounds))] + [(DOUBT, in_doubt)] * doubt + [(LEMKE, pivot)]
     if quick:
-        fallback = fallback[:1]
+        fallback = fallback[:-1]
     elif m <= LEMKE_EARLY:
         fallback.reverse()
     best = np.inf
@@ -456,7 +470,8 @@ def solve(problem: ContactProblem, pn: np.ndarray | None = None, pt: np.ndarray 
     kept = warm if closest[1] is None else closest[1]
     kept_pn, kept_pt = np.maximum(kept[:m], 0.0) * kn, kept[m:] * kt
     kept_pt = np.clip(kept_pt, -problem.friction * kept_pn, problem.friction * kept_pn)
-    stages = ["the central path"] * interior + ["the proximal point method"] + ["Lemke's pivoting"] * (not quick)
+    stages = (["the central path"] * interior + ["the proximal point method"]
+              + ["Lemke's walk on the points in doubt"] * doubt + ["Lemke's pivoting"] * (not quick))
     tried = " or ".join(filter(None, [", ".join(stages[:-1]), stages[-1]]))
     best = min(best, closest[0])
     raise ReferenceFailure(f"the contact problem ({m} points, {n} bodies) was not solved to {tolerance:g} m/s by "

@@ -12,12 +12,14 @@ nearly the same load, and the solve then needs few or no Newton rounds.
 
 **What a hopeless run costs.** A pile the reference cannot follow sets steps that nothing lands, each costing
 the whole fallback (the proximal point method's walk and Lemke's pivoting: up to tens of seconds on a 20-row
-pyramid). After ``MISSES`` such steps in a row, a row's solves are quick (``reference.solve``'s ``quick``): the
-walk alone, cut to ``reference.SETTLE_QUICK`` rounds, until a step lands again. That may leave more steps
-unsolved, never a wrong answer: every unsolved step is counted and shown beside the error, and a run with any
-is kept out of speed-against-error plots, fronts and winners. The rule depends only on the run's own steps,
-so the same run gives the same counts. A failed solve whose best residual is below ``NEAR_MISS`` (1e-8 m/s,
-against the tolerance of 1e-10) shows the fallback working on this run, so it does not count toward ``MISSES``.
+pyramid). After ``MISSES`` such steps in a row, a row's solves are quick (``reference.solve``'s ``quick``):
+without Lemke's walks on the whole problem (the proximal point method, and on a large problem the walk on its
+points in doubt: 2 to 8 s a failing step of a toppling 20-row pyramid, against about 25 s), until a step lands
+again. That may leave more steps unsolved, never a wrong answer: every unsolved step is counted and shown beside
+the error, and a run with any is kept out of speed-against-error plots, fronts and winners. The rule depends
+only on the run's own steps, so the same run gives the same counts. A failed solve whose best residual is below
+``NEAR_MISS`` (1e-8 m/s, against the tolerance of 1e-10) shows the fallback working on this run, so it does not
+count toward ``MISSES``.
 """
 
 from __future__ import annotations
