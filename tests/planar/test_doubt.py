@@ -90,3 +90,27 @@ def test_a_quick_solve_walks_the_points_in_doubt_but_not_the_whole_problem(step,
     monkeypatch.setattr(pivoting, "starts", refused)
     sol = reference.solve(p, pn, pt, quick=True)
     assert sol.attempt == reference.DOUBT and residual(p, sol.pn, sol.pt) < 1e-10
+
+
+def test_the_walk_on_the_points_in_doubt_is_made_again_while_it_brings_the_closest_answer_tenfold_nearer(
+        monkeypatch) -> None:
+    """Step 13 of pyramid-20 under ``planar-warm-start`` at 4 iterations (800 points): the first walk on the
+    points in doubt brings the closest answer from about 7e-6 to 2.4e-7 m/s without landing; the second, from
+    there, lands. Made once only, the quick solve misses the step."""
+    p, pn, pt = _recorded_npz("warm_pyramid20_doubt_step")
+    walks = []
+    real = reference.doubtful_start
+
+    def counted(*args):
+        walks.append(args[2])
+        return real(*args)
+
+    monkeypatch.setattr(reference, "doubtful_start", counted)
+    sol = reference.solve(p, pn, pt, quick=True)
+    assert sol.attempt == reference.DOUBT and residual(p, sol.pn, sol.pt) < 1e-10
+    assert len(walks) == 2
+    monkeypatch.setattr(reference, "DOUBT_GAIN", 0.0)
+    walks.clear()
+    with pytest.raises(reference.ReferenceFailure, match="points in doubt"):
+        reference.solve(p, pn, pt, quick=True)
+    assert len(walks) == 1

@@ -17,9 +17,9 @@ through that one factored system: their Delassus matrix ``J_A S^-1 J_A^T K_A`` (
 system in the bodies' velocities, a band) and their velocities with no impulse of their own. That is a
 contact problem of the same formulation (``pivoting.assembled``) on a tenth to a third of the points, and of
 the same class as the whole one (``S`` is symmetric positive definite, so ``J_A S^-1 J_A^T`` is a Delassus
-matrix too), which Lemke's walk ends on: a few hundred to ten thousand pivots, a second or two. Its answer and the held points' impulses that go with it
-are the start; whether they hold (a held point may now pull, or leave its friction box, and a point apart
-approach) is the Newton rounds' business, which read the modes afresh.
+matrix too), which Lemke's walk ends on: a few hundred to ten thousand pivots, a second or two. Its answer and
+the held points' impulses that go with it are the start; whether they hold (a held point may now pull, or leave
+its friction box, and a point apart approach) is the Newton rounds' business, which read the modes afresh.
 
 **Tried and not kept.** Holding the sliding points too (friction at its bound, in their mode system): ``S``
 is then not symmetric, and every walk left on a ray. Lemke's walk on the whole problem begun from the complementary

@@ -27,13 +27,14 @@ rounds do not leap where the true problem's modes read off a far answer give sys
 Where the walk misses on a problem over ``pivoting.EXACT_POINTS`` points, Lemke's walk on the points whose mode
 is in doubt at the closest answer, the clearly sticking points held rigid (``stackx.models.planar.doubt``,
 ``DOUBT``): a problem of a tenth to a third of the points, walked in a second or two, whose answer Newton rounds
-and proximal points take to the exact one. Where that misses too (but for a quick solve, which stops here), Lemke's
-complementary pivoting on the Stewart-Trinkle formulation
-(``stackx.models.planar.pivoting``, ``LEMKE``), which cannot cycle and ends on an answer for this class of
-problem, covered first by 1 and then by the step's approach (``pivoting.approach_cover``), which ends where the
-first wanders; Newton rounds take its answer to the exact one (on a problem over ``pivoting.EXACT_POINTS`` points
-its walk is on a regularized problem, and the walk of proximal points lands from there). On a problem of at most
-``LEMKE_EARLY`` points Lemke's walk costs milliseconds and comes first. Where the fallback's full Newton rounds
+and proximal points take to the exact one; made again from the closest answer then while the last brought it
+tenfold nearer (``DOUBT_GAIN``). Where that misses too (but for a quick solve, which stops here), Lemke's
+complementary pivoting on the Stewart-Trinkle formulation (``stackx.models.planar.pivoting``, ``LEMKE``), which
+cannot cycle and ends on an answer for this class of problem, covered first by 1 and then by the step's approach
+(``pivoting.approach_cover``), which ends where the first wanders; Newton rounds take its answer to the exact one
+(on a problem over ``pivoting.EXACT_POINTS`` points its walk is on a regularized problem, and the walk of proximal
+points lands from there). On a problem of at most ``LEMKE_EARLY`` points Lemke's walk costs milliseconds and
+comes first. Where the fallback's full Newton rounds
 miss, they are made again following drifts (``DRIFT``, ``mode_rows.proximal_steps``): where held points close a
 loop whose targets disagree, a round's mode system has no answer and its proximal steps settle into a steady
 drift that moves load around the loop; the round strides along it until the first held point is emptied, which
@@ -102,6 +103,7 @@ DRIFT = 0.01  # the fallback's second rounds: last two proximal steps as long wi
 MIN_STEP = 1.0 / 64  # the shortest Newton step tried before going back to sweeps
 SETTLE_START = 1e-2  # the proximal point method's first weight d
 PIVOT_SETTLE = 1e-5  # its first weight from the answer of Lemke's walk on a large problem (already near)
+DOUBT_GAIN = 0.1  # the walk on the points in doubt again while its last brought the closest answer this near
 SETTLE_SHRINK = 0.3  # d shrinks by this after a round whose regularized problem took at most SETTLE_EASY rounds
 SETTLE_EASY = 4
 SETTLE_FLOOR = 1e-9  # the smallest d
@@ -202,8 +204,8 @@ def solve(problem: ContactProblem, pn: np.ndarray | None = None, pt: np.ndarray 
     start, e.g. the last step's by feature; zeros when None): the warm start's own Newton rounds, the central
     path, and where no path lands, the fallback (see the module text). ``quick``: the fallback without Lemke's
     walks on the whole problem, which cost the most (see ``step_problem.ReferenceStep``: after steps in a row
-    that nothing landed). ``interior=False`` leaves the paths out (the fallback alone). Raises ``ReferenceFailure`` when
-    nothing gets there."""
+    that nothing landed). ``interior=False`` leaves the paths out (the fallback alone). Raises
+    ``ReferenceFailure`` when nothing gets there."""
     m, n = problem.points, problem.bodies
     pn = np.zeros(m) if pn is None else np.array(pn, dtype=np.float64)
     pt = np.zeros(m) if pt is None else np.array(pt, dtype=np.float64)
@@ -411,9 +413,21 @@ def solve(problem: ContactProblem, pn: np.ndarray | None = None, pt: np.ndarray 
 
     def in_doubt() -> tuple[Solution | None, float]:
         """Lemke's walk on the points whose mode is in doubt at the closest answer yet, the others held
-        (``stackx.models.planar.doubt``), taken to the exact answer (``start_from``)."""
-        start = None if closest[1] is None else doubtful_start(problem, mode_system(PROXIMAL), closest[1])
-        return (None, np.inf) if start is None else start_from(*start)
+        (``stackx.models.planar.doubt``), taken to the exact answer (``start_from``); again from the closest
+        answer then, while the last walk brought it ``DOUBT_GAIN`` nearer or more."""
+        best = np.inf
+        while closest[1] is not None:
+            before = closest[0]
+            start = doubtful_start(problem, mode_system(PROXIMAL), closest[1])
+            if start is None:
+                break
+            found, reached = start_from(*start)
+            if found is not None:
+                return found, reached
+            best = min(best, reached)
+            if not closest[0] < DOUBT_GAIN * before:
+                break
+        return None, best
 
     warm = np.concatenate([pn / kn, pt / kt])
     # a warm start near the answer (a pile at rest: the last step's answer is this one's) lands in a round or two
