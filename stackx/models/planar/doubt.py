@@ -71,7 +71,7 @@ def doubtful_start(problem: ContactProblem, system: object,
         return None
     dof, free = system.dof, system.free
     rows = np.concatenate([points, m + points])
-    values, columns = system.values[rows], system.columns[rows]
+    values, columns, k = system.values[rows], system.columns[rows], system.k[rows]
     with compiled(enabled()):
         aim = system.target[free] - system.fixed_u[free] + d * near[free]
         momentum = system.v0 / system.inv + mode_rows.spread(system.j_rows, system.j_columns,
@@ -79,8 +79,8 @@ def doubtful_start(problem: ContactProblem, system: object,
         base = banded.solve(system.factors, system.half, system.pivots, system.where, momentum)
         # each row in doubt's impulse direction, through the held pile: a column of S^-1 J_A^T K_A
         reach = np.empty((dof + 1, rows.shape[0]))
-        for c, r in enumerate(rows):
-            push = mode_rows.spread(system.values[r:r + 1], system.columns[r:r + 1], system.k[r:r + 1], dof)
+        for c in range(rows.shape[0]):
+            push = mode_rows.spread(values[c:c + 1], columns[c:c + 1], k[c:c + 1], dof)
             reach[:, c] = banded.solve(system.factors, system.half, system.pivots, system.where, push)
         free_velocity = mode_rows.gathered(values, columns, base) + system.fixed_u[rows]
         delassus = np.stack([mode_rows.gathered(values, columns, reach[:, c]) for c in range(rows.shape[0])], axis=1)

@@ -34,12 +34,12 @@ cannot cycle and ends on an answer for this class of problem, covered first by 1
 (``pivoting.approach_cover``), which ends where the first wanders; Newton rounds take its answer to the exact one
 (on a problem over ``pivoting.EXACT_POINTS`` points its walk is on a regularized problem, and the walk of proximal
 points lands from there). On a problem of at most ``LEMKE_EARLY`` points Lemke's walk costs milliseconds and
-comes first. Where the fallback's full Newton rounds
-miss, they are made again following drifts (``DRIFT``, ``mode_rows.proximal_steps``): where held points close a
-loop whose targets disagree, a round's mode system has no answer and its proximal steps settle into a steady
-drift that moves load around the loop; the round strides along it until the first held point is emptied, which
-the next round reads as apart. Plain rounds come first: with drifts followed from the start, the fallback missed
-a step of a shaking 20-row pyramid (``planar-xpbd`` at 16 substeps, 902 points, 1.5e-9 m/s) that it now lands.
+comes first. Where the fallback's full Newton rounds miss, they are made again following drifts (``DRIFT``,
+``mode_rows.proximal_steps``): where held points close a loop whose targets disagree, a round's mode system has
+no answer and its proximal steps settle into a steady drift that moves load around the loop; the round strides
+along it until the first held point is emptied, which the next round reads as apart. Plain rounds come first:
+with drifts followed from the start, the fallback missed a step of a shaking 20-row pyramid (``planar-xpbd`` at
+16 substeps, 902 points, 1.5e-9 m/s) that it now lands.
 
 **Faces that cannot stick at both points.** The two points of a face whose targets differ (one touching, one
 closing a speculative gap) slip at rates that differ by the face's turn times their depth difference, so both
