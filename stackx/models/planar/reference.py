@@ -14,11 +14,11 @@ last step's answer is this one's) lands in ``WARM_ROUNDS`` rounds of its own mod
 the central path of the step's complementarity problem (``stackx.models.planar.interior``: a primal-dual
 interior point method, which holds every complementary pair at one shrinking product and so chooses no mode
 until the end, where redundant points share their load evenly), and full Newton rounds land from its end
-(``Solution.attempt`` ``PATH``; where they miss, damped rounds, whose sweeps mend the modes but cost, on a 20-row
-pyramid, about ten times what the path does). Where that path folds (friction), it is followed again from the warm
-start, which more often lies on the answer's side of the fold, and then with the friction raised in stages
-(``FRICTION_RAMP``): without friction the step is a convex problem, whose path ends from its own start, and each
-stage's path begins where the last one's ended.
+(``Solution.attempt`` ``PATH``; where they miss, damped rounds, whose sweeps mend the modes but cost: on a
+recorded 20-row pyramid step, 265 ms against the path's 23). Where that path folds (friction), it is followed
+again from the warm start, which more often lies on the answer's side of the fold, and then with the friction
+raised in stages (``FRICTION_RAMP``): without friction the step is a convex problem, whose path ends from its
+own start, and each stage's path begins where the last one's ended.
 
 **The fallback, where no path lands.** The proximal point method (``settle``, ``WALK``), begun from the closest
 answer the paths' Newton rounds reached: each outer round solves the *regularized* problem, whose velocities
