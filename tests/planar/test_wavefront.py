@@ -18,7 +18,7 @@ from stackx.solvers.planar.contacts import (A, B, KN, KT, MU, NX, NY, PN, PT, co
 from stackx.solvers.planar.soft_step import SUBSTEP_HERTZ, PlanarSoftStep, PlanarSoftStepParams
 from stackx.solvers.planar.substep import base_separations, moved, separation, step_start
 from stackx.solvers.planar.wavefront import manifold_end, manifold_starts, wavefronts
-from stackx.solvers.planar.wide import LANES
+from stackx.solvers.planar.wide import BLOCK, LANES, line_aligned
 from stackx.models.planar.state import PlanarState
 from tests.planar.hand_states import boxes, pyramid
 
@@ -295,3 +295,22 @@ def test_same_pairs_tells_points_between_the_same_bodies_in_the_same_order(on: b
         assert not same_pairs(ids, held - 1, keys, held)
         assert not same_pairs(ids, held, keys, held - 1)
         assert not same_pairs(swapped, held, keys, held)
+
+
+@pytest.mark.parametrize("on", [False, True])
+def test_records_and_body_rows_begin_a_cache_line(on: bool) -> None:
+    """A pass loads a field of a block's lanes as one vector and a body as one row of 64 bytes: the memory the
+    soft step keeps for them (``wide.line_aligned``) begins a cache line however numpy or numba placed it,
+    made by the solver or grown within a call, plain or compiled, and holds as many numbers as asked."""
+    for size in (1, 7, 8, 9, 1000):
+        with compiled(on):
+            room = line_aligned(size)
+        assert room.ctypes.data % 64 == 0 and room.shape == (size,) and room.flags.c_contiguous
+    state = pyramid(6, mu=0.6)
+    solver = PlanarSoftStep([PlanarSoftStepParams(substeps=4)], np.array([G]), np.array([DT]))
+    with compiled(on):
+        for _ in range(2):  # the first call grows the blocks within it, the second in the solver's memory
+            solver.advance(state, 1)
+            assert solver.work is not None
+            assert solver.work.record.ctypes.data % 64 == 0 and solver.work.body_rows.ctypes.data % 64 == 0
+    assert solver.work.record.shape[1] > BLOCK  # grown past the room it was made with

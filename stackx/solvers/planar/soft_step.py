@@ -70,8 +70,8 @@ from stackx.solvers.planar.kept import Kept, keep, take_back
 from stackx.solvers.planar.contacts import find_contacts_near, observe_contacts, recall_impulses, same_pairs
 from stackx.solvers.planar.wavefront import manifold_starts, wavefronts
 from stackx.solvers.planar.wide import (BLOCK, BODY_COLUMNS, COS, D_X, D_Y, LANES, SIN, V_W, V_X, V_Y,
-                                        add_applied, block_workspace, effective_masses, empty_lanes,
-                                        lay_out, place_waves, remember_laid, soft_pass, warm_start)
+                                        add_applied, block_workspace, effective_masses, empty_lanes, lay_out,
+                                        line_aligned, place_waves, remember_laid, soft_pass, warm_start)
 from stackx.solvers.column.soft_step import STATIC_HERTZ, SoftStepParams, soft
 
 
@@ -116,8 +116,9 @@ class Workspace:
         self.ends = np.empty((threads, room + 1), np.uint64)
         self.used = np.empty((threads, room + 1), np.int64)
         self.start = np.empty((threads, GROUP * bodies, 3))
-        self.body_rows = np.empty((threads, GROUP * bodies + 1, BODY_COLUMNS))
-        self.record = np.empty((threads, blocks * BLOCK))
+        self.body_rows = line_aligned(threads * (GROUP * bodies + 1) * BODY_COLUMNS).reshape(
+            threads, GROUP * bodies + 1, BODY_COLUMNS)
+        self.record = line_aligned(threads * blocks * BLOCK).reshape(threads, blocks * BLOCK)
         self.sides = np.empty((threads, blocks * LANES, 2), np.uint64)
         self.blocks = np.zeros(threads, np.int64)  # the blocks each thread stepped in, by the last call
 
@@ -136,7 +137,7 @@ class Workspace:
         most = int(self.blocks.max())
         if most * LANES > self.sides.shape[1]:
             threads = self.impulses.shape[0]
-            self.record = np.empty((threads, most * BLOCK))
+            self.record = line_aligned(threads * most * BLOCK).reshape(threads, most * BLOCK)
             self.sides = np.empty((threads, most * LANES, 2), np.uint64)
 
 
@@ -201,7 +202,7 @@ def load_bodies(x: np.ndarray, y: np.ndarray, angle: np.ndarray, vx: np.ndarray,
 def still_ground(bodies: np.ndarray) -> None:
     """The ground's row (the last): all zeros and no turn. The ground's zeros enter a visit's sums as
     ``x - 0.0``, which is ``x``, so a visit reads the ground as a body without a test and gets the numbers of
-    skipping it; nothing writes it."""
+    skipping it; a pass writes it back only the zeros it holds (``wide.scatter``)."""
     g = bodies.shape[0] - 1
     bodies[g, V_X], bodies[g, V_Y], bodies[g, V_W] = 0.0, 0.0, 0.0
     bodies[g, D_X], bodies[g, D_Y], bodies[g, COS], bodies[g, SIN] = 0.0, 0.0, 1.0, 0.0
