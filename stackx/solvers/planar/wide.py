@@ -78,11 +78,11 @@ LINE = 8  # numbers in a cache line of 64 bytes
 
 @kernel
 def line_aligned(size: int) -> np.ndarray:
-    """``size`` unfilled numbers, the first beginning a cache line. Arrays begin 16 (numpy) or 32 (numba)
-    bytes past one, and a record there has each field of a block's lanes (``LANES`` numbers, 32 bytes) across
-    the two halves of a line or across two lines, which every vector load and store of a pass pays for:
-    passes over records 16 bytes past a line cost about a tenth more. Body rows of 64 bytes each fill one
-    line only when they begin one."""
+    """``size`` unfilled numbers, the first beginning a cache line. numpy's arrays begin 16 bytes past one
+    (numba's on any 32-byte boundary), and a record there has each field of a block's lanes (``LANES``
+    numbers, 32 bytes) across the two halves of a line or across two lines, which every vector load and store
+    of a pass pays for: passes over records 16 bytes past a line cost about a tenth more. Body rows of 64
+    bytes each fill one line only when they begin one."""
     raw = np.empty(size + LINE)
     skip = -(raw.ctypes.data // 8) % LINE
     return raw[skip:skip + size]
