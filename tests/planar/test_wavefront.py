@@ -301,7 +301,8 @@ def test_same_pairs_tells_points_between_the_same_bodies_in_the_same_order(on: b
 def test_records_and_body_rows_begin_a_cache_line(on: bool) -> None:
     """A pass loads a field of a block's lanes as one vector and a body as one row of 64 bytes: the memory the
     soft step keeps for them (``wide.line_aligned``) begins a cache line however numpy or numba placed it,
-    made by the solver or grown within a call, plain or compiled, and holds as many numbers as asked."""
+    plain or compiled (a call grows its blocks with the compiled one), made with the solver's workspace or grown
+    after a call, and holds as many numbers as asked."""
     for size in (1, 7, 8, 9, 1000):
         with compiled(on):
             room = line_aligned(size)
@@ -309,7 +310,7 @@ def test_records_and_body_rows_begin_a_cache_line(on: bool) -> None:
     state = pyramid(6, mu=0.6)
     solver = PlanarSoftStep([PlanarSoftStepParams(substeps=4)], np.array([G]), np.array([DT]))
     with compiled(on):
-        for _ in range(2):  # the first call grows the blocks within it, the second in the solver's memory
+        for _ in range(2):  # the first call's blocks outgrow the workspace's, which grows after it
             solver.advance(state, 1)
             assert solver.work is not None
             assert solver.work.record.ctypes.data % 64 == 0 and solver.work.body_rows.ctypes.data % 64 == 0

@@ -116,9 +116,8 @@ class Workspace:
         self.ends = np.empty((threads, room + 1), np.uint64)
         self.used = np.empty((threads, room + 1), np.int64)
         self.start = np.empty((threads, GROUP * bodies, 3))
-        self.body_rows = line_aligned(threads * (GROUP * bodies + 1) * BODY_COLUMNS).reshape(
-            threads, GROUP * bodies + 1, BODY_COLUMNS)
-        self.record = line_aligned(threads * blocks * BLOCK).reshape(threads, blocks * BLOCK)
+        self.body_rows = per_thread(threads, GROUP * bodies + 1, BODY_COLUMNS)
+        self.record = per_thread(threads, blocks * BLOCK)
         self.sides = np.empty((threads, blocks * LANES, 2), np.uint64)
         self.blocks = np.zeros(threads, np.int64)  # the blocks each thread stepped in, by the last call
 
@@ -137,8 +136,15 @@ class Workspace:
         most = int(self.blocks.max())
         if most * LANES > self.sides.shape[1]:
             threads = self.impulses.shape[0]
-            self.record = line_aligned(threads * most * BLOCK).reshape(threads, most * BLOCK)
+            self.record = per_thread(threads, most * BLOCK)
             self.sides = np.empty((threads, most * LANES, 2), np.uint64)
+
+
+def per_thread(threads: int, *shape: int) -> np.ndarray:
+    """An unfilled array of ``shape`` for each of ``threads`` threads, one after the other, each beginning a
+    cache line (``wide.line_aligned``): a thread's part is whole blocks (``BLOCK`` numbers, 1,536 bytes) or
+    whole body rows (64 bytes), so where the first begins a line, every one does."""
+    return line_aligned(threads * int(np.prod(shape))).reshape(threads, *shape)
 
 
 class WaveOrders:
