@@ -1,13 +1,16 @@
 """``stackx bench``: load every case first, run them with a progress bar, write the report, print tables.
 
 Every config and every solver's settings are validated before anything runs, so a bad file or an unknown
-solver stops the command with exit code 2 and nothing written; the output folder is written at the end,
-all files at once.
+solver stops the command with exit code 2 and nothing written. The output folder is locked and its staging
+folder made before the first case runs (a folder that cannot be written is refused then, not after the
+bench), and it is switched in whole at the end, as ``stackx run`` switches its folder
+(``stackx.output.folder``): a second bench into it waits, and a killed one leaves the old files or the new.
 """
 
 from __future__ import annotations
 
 import time
+from contextlib import nullcontext
 from pathlib import Path
 
 from rich.console import Console
@@ -21,6 +24,8 @@ from stackx.bench.tables import print_all
 from stackx.config.experiment import config_files, load
 from stackx.errors import ConfigError
 from stackx.run.executor import Choice, open_executor
+from stackx.run.lines import Finished
+from stackx.output.folder import FolderUpdate
 from stackx.output.outdir import OutputDir
 from stackx.output.screen import screen
 
@@ -47,26 +52,40 @@ def bench(paths: list[str], solvers: list[str] | None, out: Path | None, plugins
     ``wide`` every run's figures and the stability matrix."""
     cases = load_cases(paths, solvers, plugins, sets)
     console = Console(stderr=True)
-    start = time.perf_counter()
-    results = []
-    columns = (TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn())
-    with open_executor(choice or Choice()) as executor, \
-            Progress(*columns, console=console, transient=True, disable=quiet) as bar:
-        task = bar.add_task("bench", total=sum(work(c) for c, _ in cases) or 1)
-        jobs = [executor.calls(bench_plan, [(case, plan) for plan in case.plans],
-                               [plan_work(case, plan) for plan in case.plans]) for case, _ in cases]
-        for (case, left_out), case_jobs in zip(cases, jobs):
-            bar.update(task, description=case.name)
-            records = [rec for job in case_jobs for rec in job.result(lambda n: bar.advance(task, n))]
-            results.append(CaseResult.build(case, records, left_out))
-    wall = time.perf_counter() - start
-    if out is not None:
-        staged = OutputDir(out)
-        write(results, staged, command, wall)
-        staged.commit()
+    say = lambda line: console.print(line, markup=False, highlight=False, soft_wrap=True)  # noqa: E731
+    with FolderUpdate(out, say=say) if out is not None else nullcontext() as folder:
+        start = time.perf_counter()
+        results = []
+        columns = (TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn())
+        with open_executor(choice or Choice()) as executor, \
+                Progress(*columns, console=console, transient=True, disable=quiet) as bar:
+            task = bar.add_task("bench", total=sum(work(c) for c, _ in cases) or 1)
+            jobs = [executor.calls(bench_plan, [(case, plan) for plan in case.plans],
+                                   [plan_work(case, plan) for plan in case.plans]) for case, _ in cases]
+            finished = Finished(console, "bench", sum(len(case.plans) for case, _ in cases), quiet)
+            for (case, left_out), case_jobs in zip(cases, jobs):
+                bar.update(task, description=case.name)
+                records = []
+                for plan, job in zip(case.plans, case_jobs):
+                    records += job.result(lambda n: bar.advance(task, n))
+                    finished.done(f"{case.name} {plan.solver}")  # a line each where no bar is drawn
+                results.append(CaseResult.build(case, records, left_out))
+        wall = time.perf_counter() - start
+        if folder is not None:
+            _switch_in(folder, results, command, wall)
     if not quiet:
         console = screen()
         print_all(results, console, wide)
         if out is not None:
             console.print(f"wrote {out / 'bench.json'} and {out / 'report.html'} in {wall:.1f} s")
     return results
+
+
+def _switch_in(folder: FolderUpdate, results: list[CaseResult], command: str, wall: float) -> None:
+    """Stage the bench's files and switch its folder to them; the files a bench writes are its own to replace
+    (every other entry of the folder is carried over untouched)."""
+    staged = OutputDir(folder.shown)
+    write(results, staged, command, wall)
+    folder.ours = set(staged.staged)
+    folder.write(staged.staged)
+    folder.commit()

@@ -14,7 +14,6 @@ import platform
 import sys
 from collections.abc import Sequence
 from importlib import metadata
-from pathlib import Path
 from typing import Any
 
 from stackx import __version__
@@ -30,8 +29,9 @@ from stackx.output.outdir import OutputDir
 
 
 def config_hash(path: str) -> str:
-    """SHA-256 of the config file's bytes: which exact config produced a record."""
-    return manifest.sha256(Path(path).read_bytes())
+    """SHA-256 of the config file's bytes: which exact config produced a record (read in chunks, so memory
+    stays bounded whatever the file's size)."""
+    return manifest.file_sha256(path)
 
 
 def machine() -> dict[str, Any]:
@@ -122,7 +122,8 @@ def pictures(res: CaseResult) -> dict[str, str]:
 
 
 def write(results: list[CaseResult], out: OutputDir, command: str, wall_seconds: float) -> None:
-    """Stage ``bench.json`` and ``report.html`` (``OutputDir.commit`` writes them)."""
+    """Stage ``bench.json`` and ``report.html`` in ``out`` (held in memory; the bench command switches them into
+    its folder, ``stackx.output.folder``)."""
     out.write_text("bench.json", bench_json(results, command, wall_seconds))
     drawn = {res.name: pictures(res) for res in results}
     states = {res.name: snapshots(res) for res in results}

@@ -5,7 +5,8 @@ A clone holds them at the repository's top level (``configs/``: the lab, ``confi
 data under ``stackx/_starter/``: the build step in ``setup.py`` copies them there from the one copy in the
 repository, using ``shipped_files`` below, so what a clone runs and what an installed stackx writes out are
 the same bytes. ``stackx init DIR`` writes them into ``DIR``, so that ``stackx run DIR/configs/`` runs the
-lab from any folder and ``DIR/configs/examples/`` finds its plugin in ``DIR/plugins/``, as in the repository.
+lab from any folder and ``DIR/configs/examples/`` runs with its plugin named, ``--plugins DIR/plugins``, as in the
+repository (a config imports only the ``plugins/`` folder beside it unless told otherwise).
 
 Only the standard library is imported at the top: the build step loads this file by its path, before stackx
 or its dependencies are installed.
@@ -78,26 +79,29 @@ def init_folder(target: Path) -> list[str]:
     """Write every shipped file into ``target`` (made if missing); return their relative names.
 
     Nothing is overwritten: when any of the files (or a file in the way of their folders) already exists,
-    a ``ConfigError`` names it and how many more there are, and nothing is written. Each file is written
-    atomically (``stackx.output.outdir``), so an interrupted init leaves complete files only.
+    a ``ConfigError`` names it and how many more there are, and nothing is written. The files are written as
+    ``stackx run`` writes its folder (``stackx.output.folder``: the same lock, all of them or none), so an
+    interrupted or killed init leaves the folder as it was, never part of the files; where ``target`` holds
+    the working folder they are linked into place one by one, and the next stackx command into the folder
+    takes back an init killed part-way.
     """
     from stackx.errors import ConfigError
-    from stackx.output.outdir import OutputDir
+    from stackx.output.folder import FolderUpdate
 
+    update = FolderUpdate(target, here=True)
     if target.is_symlink() or (target.exists() and not target.is_dir()):
         raise ConfigError("not a folder: stackx init writes configs/ and plugins/ into a folder",
                           file=str(target))
     root = source_root()
     names = shipped_files(root)
-    taken = [why for why in (_taken(target, name) for name in names) if why is not None]
-    if taken:
-        more = f" (and {len(taken) - 1} more)" if len(taken) > 1 else ""
-        raise ConfigError(f"{taken[0]}{more}; stackx init never overwrites, so nothing was written: "
-                          f"choose a new or empty folder", file=str(target))
-    out = OutputDir(target)
-    for name in names:
-        out.write_bytes(name, (root / name).read_bytes())
-    out.commit()
+    with update:
+        taken = [why for why in (_taken(target, name) for name in names) if why is not None]
+        if taken:
+            more = f" (and {len(taken) - 1} more)" if len(taken) > 1 else ""
+            raise ConfigError(f"{taken[0]}{more}; stackx init never overwrites, so nothing was written: "
+                              f"choose a new or empty folder", file=str(target))
+        update.write({name: (root / name).read_bytes() for name in names})
+        update.commit()
     return names
 
 

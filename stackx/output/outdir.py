@@ -1,13 +1,12 @@
-"""The output folder: files are staged in memory and written only when a whole experiment succeeded.
+"""The output folder's names and records: what a file may be called, and an experiment's files held in memory.
 
-``stackx run`` switches its whole output folder in one step (``stackx.output.folder``); ``OutputDir.commit`` is for
-the writers of a few files into a folder that may hold other things (``stackx init``, ``stackx bench``). Each
-file is written to a temporary file in the same folder and renamed into place, so a reader (or a process
-killed at any moment) sees either the old complete file or the new complete one, and a commit failing
-part-way puts back what it had written. A process killed between a write and its rename can leave a
-temporary file behind: it is named ``.NAME.XXXXXXXX.tmp``, a hidden name that no artifact may have
-(``safe_relative`` refuses names starting with a dot), so it is never taken for an artifact, never listed in
-the manifest, and can be deleted at any time.
+An experiment's outputs write into an ``OutputDir``, which only holds their bytes: nothing reaches the disk
+until the whole update of the folder is switched in (``stackx.output.folder``, which ``stackx run``, ``bench``
+and ``init`` use alike). A name starting with a dot is never an artifact (``safe_relative`` refuses it): such
+names are kept for stackx's own hidden entries (``.X.stackx-next`` and the like beside the folder) and for the
+temporary file of ``atomic_write`` (``.NAME.XXXXXXXX.tmp``), which a process killed between its write and its
+rename can leave behind; such a file is never taken for an artifact, never listed in the manifest, and can be
+deleted at any time.
 
 Paths are confined to the folder: absolute paths, ``..``, hidden names and links on the way are refused
 (``stackx.outputs.confine`` checks an output's paths this way before anything runs, so a bad path fails with
@@ -20,7 +19,7 @@ import os
 import tempfile
 from pathlib import Path, PurePosixPath
 
-from stackx.errors import ConfigError, RunError
+from stackx.errors import RunError
 
 TEMP_SUFFIX = ".tmp"
 MANIFEST = "manifest.json"  # what the folder holds and how it was made (see stackx.output.manifest)
@@ -62,7 +61,8 @@ def check_place(root: Path, name: str) -> None:
 
 
 class OutputDir:
-    """Artifacts of one experiment, held until ``commit``."""
+    """Artifacts of one experiment (or a bench's report), held in memory (``staged``: name -> bytes) until the
+    update of the folder writes them."""
 
     def __init__(self, root: Path) -> None:
         self.root = root
@@ -77,74 +77,6 @@ class OutputDir:
         if not isinstance(text, str):
             raise TypeError(f"{name!r}: write_text takes a str, not {type(text).__name__}")
         self.write_bytes(name, text.encode("utf-8"))
-
-    def commit(self) -> list[Path]:
-        """Write every staged file atomically, in name order; return their paths.
-
-        All or nothing for a failure it sees (a full disk, a file in the way): the files already written are
-        put back as they were (a replaced file from a hard-linked copy kept until the end, a new one removed,
-        with the folders made for it). A process killed part-way leaves whole files only, some of them new;
-        ``stackx run`` switches its whole folder instead (``stackx.output.folder``).
-        """
-        if self.root.exists() and not self.root.is_dir():
-            raise ConfigError("the output folder is a file", file=str(self.root))
-        written: list[tuple[Path, Path | None]] = []  # (file, the copy of the file it replaced)
-        made: list[Path] = []
-        try:
-            for name, data in sorted(self.staged.items()):
-                target = self.root / name
-                try:
-                    check_place(self.root, name)
-                    made += _make_folders(target.parent)
-                    check_place(self.root, name)  # again: a link could have appeared while making folders
-                    kept = _keep(target)
-                    written.append((target, kept))
-                    atomic_write(target, data)
-                except ValueError as exc:
-                    raise ConfigError(str(exc), file=str(self.root)) from None
-                except OSError as exc:
-                    raise RunError(f"cannot write {target}: {exc.strerror or exc}") from None
-        except BaseException:
-            _undo(written, made)
-            raise
-        for _, kept in written:
-            if kept is not None:
-                kept.unlink(missing_ok=True)
-        return [target for target, _ in written]
-
-
-def _make_folders(folder: Path) -> list[Path]:
-    """Make ``folder`` and its missing parents; return those made, outermost first."""
-    missing = [p for p in (folder, *folder.parents) if not p.exists()][::-1]
-    for p in missing:
-        p.mkdir()
-    return missing
-
-
-def _keep(target: Path) -> Path | None:
-    """A hidden hard link to the file ``target`` is about to replace (None: there is none), to put it back."""
-    if not target.is_file():
-        return None
-    kept = target.with_name(f".{target.name}.{os.urandom(4).hex()}{TEMP_SUFFIX}")
-    os.link(target, kept)
-    return kept
-
-
-def _undo(written: list[tuple[Path, Path | None]], made: list[Path]) -> None:
-    """Put the files of a failed commit back as they were, best effort."""
-    for target, kept in reversed(written):
-        try:
-            if kept is not None:
-                os.replace(kept, target)
-            else:
-                target.unlink(missing_ok=True)
-        except OSError:
-            pass
-    for folder in reversed(made):
-        try:
-            folder.rmdir()
-        except OSError:
-            pass
 
 
 def atomic_write(target: Path, data: bytes) -> None:

@@ -29,9 +29,10 @@ def test_init_writes_the_repository_configs_and_plugin(cli: Cli, tmp_path: Path)
 
 
 def test_the_example_finds_its_plugin_in_the_new_folder(cli: Cli, tmp_path: Path) -> None:
-    """``configs/examples/sor-stack.yaml`` names the local solver 'sor': init ships it where it is looked for."""
+    """``configs/examples/sor-stack.yaml`` names the local solver 'sor': init ships it in ``plugins/``, which the
+    example's documented command names with ``--plugins`` (a folder above a config is never imported by itself)."""
     assert cli("init", cwd=tmp_path).returncode == 0
-    done = cli("validate", "configs/examples/", cwd=tmp_path)
+    done = cli("validate", "configs/examples/", "--plugins", "plugins", cwd=tmp_path)
     assert done.returncode == 0, done.stderr
     assert done.stdout.strip() == "ok  configs/examples/sor-stack.yaml: 2 run(s), 2 output(s)"
 

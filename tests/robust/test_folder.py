@@ -21,13 +21,14 @@ from typer.testing import CliRunner
 from benchmarks.robust_folder import command, environ, snapshot, together_trial
 from stackx.cli import app
 from tests.conftest import CONFIGS, REPO
+from tests.limits import hang_limit
 
 
 @pytest.fixture(scope="module")
 def earlier(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """A complete run of the lab with another gravity: what every failing run below must leave alone."""
     out = tmp_path_factory.mktemp("earlier") / "out"
-    subprocess.run(command(out, "--set", "gravity=-9.0"), check=True, cwd=REPO, env=environ(), timeout=300)
+    subprocess.run(command(out, "--set", "gravity=-9.0"), check=True, cwd=REPO, env=environ(), timeout=hang_limit(300))
     return out
 
 
@@ -38,7 +39,7 @@ def _limited(max_bytes: int) -> None:
 
 
 def _run_limited(out: Path, max_bytes: int) -> subprocess.CompletedProcess[str]:
-    return subprocess.run(command(out), cwd=REPO, env=environ(), timeout=300, capture_output=True, text=True,
+    return subprocess.run(command(out), cwd=REPO, env=environ(), timeout=hang_limit(300), capture_output=True, text=True,
                           preexec_fn=lambda: _limited(max_bytes))
 
 
@@ -93,7 +94,7 @@ def test_a_second_writer_waits_for_the_first_and_says_so(tmp_path: Path) -> None
         assert proc.poll() is None and not out.exists()
     finally:
         lock.release()
-    assert proc.wait(timeout=120) == 0
+    assert proc.wait(timeout=hang_limit(120)) == 0
     assert (out / "manifest.json").is_file() and (out / "03-sink.txt").is_file()
 
 
@@ -103,8 +104,8 @@ def test_three_runs_into_one_folder_at_once_all_land(tmp_path: Path) -> None:
 
 
 def test_init_failing_part_way_leaves_nothing(tmp_path: Path) -> None:
-    """``stackx init`` writes file by file (its folder may be the working folder, or hold the user's files);
-    a write failing part-way takes back the files and folders it had made."""
+    """``stackx init`` stages its files as a run does; a write failing part-way leaves no folder, no staging
+    folder and no lock beside the user's own file."""
     from stackx.config.starter import shipped_files, source_root
 
     root = source_root()
@@ -113,9 +114,10 @@ def test_init_failing_part_way_leaves_nothing(tmp_path: Path) -> None:
     assert any(size > limit for size in sizes[1:])
     (tmp_path / "mine.txt").write_text("the user's own file")
     target = tmp_path / "lab"
-    done = subprocess.run([*command(target)[:3], "init", str(target)], cwd=REPO, env=environ(), timeout=120,
+    done = subprocess.run([*command(target)[:3], "init", str(target)], cwd=REPO, env=environ(), timeout=hang_limit(120),
                           capture_output=True, text=True, preexec_fn=lambda: _limited(limit))
     assert done.returncode == 1, done.stdout + done.stderr
     [line] = done.stderr.strip().splitlines()
-    assert line.startswith(f"error: cannot write {target}/") and line.endswith("File too large")
+    assert line.startswith(f"error: cannot write {target}/") and line.endswith(f"File too large; {target} left "
+                                                                                 f"as it was")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["mine.txt"]

@@ -19,6 +19,7 @@ import pytest
 from benchmarks.robust_folder import (References, after_kill, command, environ, kill_points, kill_trial, references,
                                       snapshot)
 from tests.conftest import REPO, Shown
+from tests.limits import hang_limit
 
 SEED = 20261125
 
@@ -55,7 +56,7 @@ def test_a_first_run_killed_leaves_no_folder_or_a_complete_one(refs: tuple[Path,
         folder = root / f"fresh{i}"
         base = ["strace", "-qq", "-o", "/dev/null", "-e", f"trace={point[0]}",
                 "-e", f"inject={point[0]}:signal=KILL:when={point[1]}"]
-        subprocess.run([*base, *command(folder)], cwd=REPO, env=environ(), timeout=300,
+        subprocess.run([*base, *command(folder)], cwd=REPO, env=environ(), timeout=hang_limit(300),
                        stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
         if folder.exists():
             files = snapshot(folder)
