@@ -9,7 +9,8 @@ get numpy arrays back, bench solvers and get their records as a table, and draw 
     stack.heights          # (recorded steps, boxes) array of box centres, bottom box first
     stack.measures["max_depth"]
     api.write(spec, result, "out")            # the config's own artifacts, as `stackx run` writes them
-    table = api.bench(["configs/hard/tall-20.yaml"], solvers=["exact", "warm-start"])
+    table = api.bench(["configs/hard/tall-20.yaml"], solvers=["exact", "warm-start"])  # a list of dicts
+    api.frame(table)                          # the same records as a pandas DataFrame, when pandas is there
 
 The command line is built on the same functions: ``stackx run`` is ``load``, then the runner, then ``write``
 for every config; ``stackx bench`` is ``bench`` with an output folder.
@@ -43,8 +44,8 @@ def load(config: str | Path | Mapping[str, Any], overrides: Mapping[str, Any] | 
          plugins: str | Path | None = None, name: str = "notebook") -> ExperimentSpec:
     """A validated config from a YAML file, or from a dict shaped like one (``name`` stands for its file name
     in errors, which then name the key without a line). ``overrides`` are dotted keys as for ``--set``; ``plugins`` a folder of local
-    plugins (for a file, the nearest ``plugins/`` is used when not given). Bad input raises ``ConfigError``
-    with the same one-line message as the command line."""
+    plugins (when not given: for a file, the ``plugins/`` folder in its own folder, never one above; for a dict,
+    none). Bad input raises ``ConfigError`` with the same one-line message as the command line."""
     folder = Path(plugins) if plugins is not None else None
     if not isinstance(config, Mapping):
         return load_file(str(config), _sets(overrides), folder)
@@ -167,21 +168,29 @@ def picture(result: Result, run: str, step: int) -> bytes:
 
 
 def bench(configs: Iterable[str | Path], solvers: Iterable[str] | None = None, out: str | Path | None = None,
-          overrides: Mapping[str, Any] | None = None, quiet: bool = True) -> Any:
+          overrides: Mapping[str, Any] | None = None, quiet: bool = True) -> list[dict[str, Any]]:
     """Bench ``configs`` (files or folders) with ``solvers`` (default: every built-in and installed one) and
-    return one row per run: a pandas DataFrame when pandas is installed, else a list of dicts. With ``out``
-    the bench's folder (``bench.json``, ``report.html``, plots) is written too, as ``stackx bench`` does."""
+    return one record per run, always a list of dicts with the fields docs/api.md lists (identity, verdicts,
+    costs in µs, errors in m/s, then the model's measures), whatever is installed: ``frame(rows)`` makes a
+    pandas DataFrame of them. With ``out`` the bench's folder (``bench.json``, ``report.html``, plots) is
+    written too, as ``stackx bench`` does."""
     from stackx.bench.command import bench as run_bench
 
     folder = Path(out) if out is not None else None
     names = list(solvers) if solvers is not None else None
     results = run_bench([str(c) for c in configs], names, folder, quiet=quiet, sets=_sets(overrides))
-    rows = [_row(rec) for case in results for rec in case.records]
+    return [_row(rec) for case in results for rec in case.records]
+
+
+def frame(rows: Iterable[Mapping[str, Any]]) -> Any:
+    """``bench``'s records as a pandas DataFrame, one row per run and one column per field, in their order.
+    pandas is not a dependency of stackx: without it this raises ``ImportError`` saying so."""
     try:
         import pandas
-    except ImportError:
-        return rows
-    return pandas.DataFrame(rows)
+    except ImportError as exc:
+        raise ImportError("api.frame needs pandas, which stackx does not install: pip install pandas "
+                          "(api.bench's records are plain dicts without it)") from exc
+    return pandas.DataFrame.from_records([dict(row) for row in rows])
 
 
 def _row(rec: Any) -> dict[str, Any]:

@@ -16,6 +16,7 @@ from typing import TYPE_CHECKING, ClassVar
 
 from pydantic import BaseModel
 
+from stackx import registry
 from stackx.errors import Fail
 from stackx.output.outdir import check_place, safe_relative
 
@@ -33,6 +34,10 @@ MAX_DEPTH = 16
 """Most folders and file in one output path (``a/b/c.png`` is 3)."""
 NOT_PORTABLE = set('<>:"|?*\\')  # characters Windows refuses in a name (a backslash also separates folders there)
 RESERVED = re.compile(r"(CON|PRN|AUX|NUL|COM[0-9]|LPT[0-9])(\..*)?", re.IGNORECASE)  # Windows device names
+CODE_SUFFIXES = (".py", ".pyc", ".pyo", ".pyw", ".pyz", ".pth")
+"""Endings of files Python imports or runs (``.pth``: at start-up, from site-packages); no output ends so."""
+PLUGIN_FOLDER = "plugins"
+"""The name of a local plugin folder: no output path starts with it."""
 SPEC = re.compile(r"(0?[1-9])?d?")
 """Format specs a file name template may use: none, ``d``, or a width up to 9, zero-padded or not
 (``{index:03d}``). A wider or other spec could make one name gigabytes long."""
@@ -131,6 +136,12 @@ class Output:
         """Paths, relative to the output folder, that ``write`` creates."""
         return [self.params.path]  # type: ignore[attr-defined]
 
+    def pictures(self) -> int:
+        """How many pictures ``write`` draws, counted against ``limits.max_frames`` with every other output's;
+        known after ``check``, without listing any file name. An output of one file (a sink, a page, a single
+        picture) counts none: the config's text limit already bounds how many such outputs there are."""
+        return 0
+
     def check(self, spec: Plan, fail: Fail) -> None:
         """Refuse, before any stepping, what cannot be produced (``raise fail(key_path, message)``)."""
 
@@ -155,10 +166,40 @@ def path_key(output: Output, name: str) -> str:
     return next((key for key, value in output.params if value == name), "path")
 
 
+def code_problem(name: str) -> str | None:
+    """Why an output path could become code that stackx or Python runs (None when it cannot): a name Python
+    imports or runs (``.py``, ``.pyc``, ``.pth``, ... in any case), or a place under a top-level ``plugins/``
+    folder, where a config's own plugin files are looked for when the output folder holds configs. An output
+    is data; refusing these keeps a config from writing the code a later command imports."""
+    shown = name if len(name) <= 60 else name[:57] + "..."
+    suffix = next((s for s in CODE_SUFFIXES if name.casefold().endswith(s)), None)
+    if suffix is not None:
+        return f"{shown!r} ends in {suffix!r}, a file Python runs; an output is data: choose another extension"
+    if name.split("/")[0].casefold() == PLUGIN_FOLDER:
+        return f"{shown!r} is inside {PLUGIN_FOLDER}/, where stackx imports plugin files from; write it elsewhere"
+    return None
+
+
+def plugin_folder_problem(root: Path, name: str, folders: list[Path]) -> str | None:
+    """Why ``name`` under the output folder ``root`` (resolved) is refused (None when it is not): it is, or lies
+    inside, one of the plugin ``folders`` (resolved)."""
+    target = root / name
+    for folder in folders:
+        if target == folder or folder in target.parents:
+            shown = name if len(name) <= 60 else name[:57] + "..."
+            return f"{shown!r} would land in {folder}, a plugin folder stackx imports from; write outputs elsewhere"
+    return None
+
+
 def confine(output: Output, fail: Fail, root: Path | None = None) -> None:
-    """Refuse every path of ``output`` that leaves the folder (and, given ``root``, that meets a link there)."""
+    """Refuse every path of ``output`` that leaves the folder or could become code (see ``code_problem``), and,
+    given ``root``, one that meets a link there or lands in a plugin folder."""
+    base = root.resolve() if root is not None else None
+    folders = [f.resolve() for f in registry.plugin_folders()]  # --plugins DIR, and every config's own plugins/
     for name in output.files():
-        problem = path_problem(name)
+        problem = path_problem(name) or code_problem(name)
+        if problem is None and base is not None:
+            problem = plugin_folder_problem(base, name, folders)
         if problem:
             raise fail((path_key(output, name),), problem)
         try:

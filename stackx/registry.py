@@ -5,8 +5,11 @@ every error can say so:
 - built in: modules of this package register with a decorator, ``@solvers.register("pgs")``;
 - installed: a distribution publishes an entry point in the group ``stackx.<kind>s``; only its name is read
   until the plugin is first used, so listing plugins imports nothing;
-- local: every ``*.py`` file in a ``plugins/`` folder (beside the config, or given with ``--plugins``) is
-  imported before names are resolved, and registers itself with the same decorator.
+- local: every ``*.py`` file in one ``plugins/`` folder (in the config's own folder, or given with
+  ``--plugins``; never one above) is imported before names are resolved, and registers itself with the same
+  decorator. A folder or file that someone else could have put there is refused before anything in it runs:
+  a link leading out of the folder, anything writable by every user, or owned by a user other than the one
+  running (or root). ``imported_line`` names the files a command imported, for it to print.
 Two plugins of one kind may not share a name: the second is refused, naming both sources.
 
 A local file that fails to import does not stop configs that do not need it: the failure is recorded with
@@ -25,11 +28,13 @@ from __future__ import annotations
 import ast
 import contextlib
 import difflib
+import errno
 import hashlib
 import importlib
 import importlib.util
 import os
 import re
+import stat
 import sys
 import traceback
 import types
@@ -70,6 +75,20 @@ def _importing(origin: str) -> Iterator[None]:
         yield
     finally:
         _origin.pop()
+
+
+class UnknownName(ConfigError):
+    """A plugin name no registry knows: what it is (``head``, with the closest known name) and what is known
+    (``tail``), so that the config loader can say between them where else it could be defined (``hinted``),
+    before the long list of known names."""
+
+    def __init__(self, head: str, tail: str) -> None:
+        super().__init__(head + tail)
+        self.head, self.tail = head, tail
+
+    def hinted(self, hint: str) -> str:
+        """The message with ``hint`` (``"; ..."``, or empty) after what is unknown."""
+        return self.head + hint + self.tail
 
 
 @dataclass
@@ -143,7 +162,7 @@ class Registry(Generic[T]):
             listing = ", ".join(f"{n} ({self._entries[n].origin})" for n in known)
             unread = "".join(f"; {f.file} failed to import ({f.message}) and may define it"
                              for f in _failures if f.names is None)
-            raise ConfigError(f"unknown {self.kind} {name!r}{hint} known: {listing}{unread}")
+            raise UnknownName(f"unknown {self.kind} {name!r}{hint}", f" known: {listing}{unread}")
         if entry.plugin is None and entry.entry_point is not None:
             with _importing(entry.origin):
                 try:
@@ -234,10 +253,11 @@ _failures: list[Failure] = []
 _REGISTRY_NAMES = {f"{kind}s": kind for kind in ALL}  # the module globals above: solvers -> solver
 
 
-def _declared(path: Path) -> dict[str, set[str]] | None:
-    """``{kind: names}`` from the ``<registry>.register("name")`` calls in a file, read without running it."""
+def _declared(path: Path, source: bytes) -> dict[str, set[str]] | None:
+    """``{kind: names}`` from the ``<registry>.register("name")`` calls in a file's ``source``, read without
+    running it."""
     try:
-        tree = ast.parse(path.read_text(encoding="utf-8"), str(path))
+        tree = ast.parse(source.decode("utf-8"), str(path))
     except (OSError, UnicodeDecodeError, SyntaxError, ValueError):
         return None
     out: dict[str, set[str]] = {}
@@ -267,35 +287,158 @@ def local_failures() -> list[Failure]:
     return list(_failures)
 
 
+_searched: list[Path] = []  # every plugin folder looked at in this process (imported from, or absent), absolute
+_imported: list[tuple[Path, str]] = []  # (absolute folder, file name) of every local file run, in import order
+
+_OPEN_FLAGS = (os.O_RDONLY | getattr(os, "O_NOFOLLOW", 0) | getattr(os, "O_NONBLOCK", 0)
+               | getattr(os, "O_CLOEXEC", 0))
+"""How a plugin folder and its files are opened: never through a link (a link is refused, or followed only
+within its folder, by name), and a FIFO planted under a ``.py`` name is not waited on."""
+
+
+def plugin_folders() -> list[Path]:
+    """The plugin folders this process imports from or would (a config's own ``plugins/`` that does not exist
+    yet included), absolute: what an output path must not write into."""
+    return list(_searched)
+
+
+def imported_count() -> int:
+    """How many local plugin files this process has run: give it to ``imported_line`` to name those run after."""
+    return len(_imported)
+
+
+def imported_line(since: int = 0) -> str | None:
+    """``plugins: imported sor.py, tall.py from /abs/plugins`` (folders separated by ``;``) naming every local
+    plugin file this process ran after the first ``since``, or None when it ran none: one line a command prints
+    on stderr."""
+    folders: dict[Path, list[str]] = {}
+    for folder, name in _imported[since:]:
+        folders.setdefault(folder, []).append(name)
+    if not folders:
+        return None
+    return "plugins: imported " + "; ".join(f"{', '.join(names)} from {folder}" for folder, names in folders.items())
+
+
+def _absolute(folder: Path) -> Path:
+    """``folder`` made absolute with the links of its parents resolved, its own last part kept as it is (a link
+    there is the folder's own business: refused, not followed)."""
+    folder = folder.absolute()
+    return folder.parent.resolve() / folder.name
+
+
+def _untrusted(st: os.stat_result, what: str) -> str | None:
+    """Why a plugin folder or file with status ``st`` may hold code someone else wrote (None: it may not):
+    writable by every user, or owned by a user other than the one running (root's own files are trusted)."""
+    if st.st_mode & stat.S_IWOTH:
+        return (f"{what} is writable by every user (mode {stat.S_IMODE(st.st_mode):04o}), so anyone may have put "
+                "code there; not imported (chmod o-w it)")
+    if st.st_uid not in (os.geteuid(), 0):
+        return (f"{what} is owned by user {st.st_uid}, not by the user running stackx ({os.geteuid()}) or root; "
+                "not imported")
+    return None
+
+
+def _open_folder(folder: Path) -> int | None:
+    """A descriptor of the plugin folder, checked (None: there is none); a link or a folder someone else
+    can change is refused."""
+    try:
+        fd = os.open(folder, _OPEN_FLAGS | getattr(os, "O_DIRECTORY", 0))
+    except FileNotFoundError:
+        return None
+    except OSError as exc:
+        if folder.is_symlink():
+            raise ConfigError(f"the plugin folder is a link to {folder.resolve()}; not imported (name the real "
+                              "folder with --plugins)", file=str(folder)) from None
+        if exc.errno == errno.ENOTDIR:
+            return None
+        raise ConfigError(f"cannot read the plugin folder: {exc.strerror}", file=str(folder)) from None
+    why = _untrusted(os.fstat(fd), "the plugin folder")
+    if why:
+        os.close(fd)
+        raise ConfigError(why, file=str(folder))
+    return fd
+
+
+def _read_plugin(folder: Path, real_folder: Path, name: str, dir_fd: int) -> tuple[str, bytes] | None:
+    """The name of the file a plugin entry stands for (itself, or the file of its folder a link names) and its
+    bytes, read through one descriptor that was checked: a regular file, not writable by others, ours. None for
+    a folder that happens to end in ``.py``."""
+    try:
+        fd = os.open(name, _OPEN_FLAGS, dir_fd=dir_fd)
+    except OSError as exc:
+        if exc.errno != errno.ELOOP:
+            raise
+        target = (folder / name).resolve()
+        if target.parent != real_folder:
+            raise ConfigError(f"the plugin file is a link to {target}, outside its folder; not imported",
+                              file=str(folder / name)) from None
+        name = target.name
+        fd = os.open(name, _OPEN_FLAGS, dir_fd=dir_fd)  # the resolved name: a link put there since fails (ELOOP)
+    try:
+        st = os.fstat(fd)
+        if stat.S_ISDIR(st.st_mode):
+            return None
+        if not stat.S_ISREG(st.st_mode):
+            raise ConfigError("the plugin file is not a regular file; not imported", file=str(folder / name))
+        why = _untrusted(st, "the plugin file")
+        if why:
+            raise ConfigError(why, file=str(folder / name))
+        with os.fdopen(os.dup(fd), "rb") as file:
+            return name, file.read()
+    finally:
+        os.close(fd)
+
+
 def load_local_plugins(folder: Path) -> None:
-    """Import every ``*.py`` in ``folder`` (in name order) once, so that its plugins register themselves."""
-    if not folder.is_dir():
+    """Import every ``*.py`` in ``folder`` (in name order) once, so that its plugins register themselves.
+
+    The folder and each file are checked first, through the descriptors they are read from, and the bytes
+    checked are the bytes run: a link leading out, or anything another user could have written, is refused
+    (``ConfigError``) before any of it runs."""
+    absolute = _absolute(folder)
+    if absolute not in _searched:
+        _searched.append(absolute)
+    dir_fd = _open_folder(folder)
+    if dir_fd is None:
         return
-    for reg in ALL.values():
-        reg._discover()  # built-ins first, so a local plugin reusing a built-in name is the one refused
-    for path in sorted(folder.glob("*.py")):
-        real = path.resolve()
-        if real in _loaded_files or path.name.startswith("_"):
-            continue
-        _loaded_files.add(real)
-        try:
-            source = real.read_bytes()
-        except OSError as exc:
-            _failures.append(Failure(str(path), f"{type(exc).__name__}: {exc}", None))
-            continue
-        local = LocalModule(_module_name(real, source), str(path), str(real), source)
-        with _importing(str(path)):
+    try:
+        for reg in ALL.values():
+            reg._discover()  # built-ins first, so a local plugin reusing a built-in name is the one refused
+        real_folder = absolute.resolve()
+        names = sorted(n for n in os.listdir(dir_fd) if n.endswith(".py") and not n.startswith(("_", ".")))
+        for entry in names:
             try:
-                _exec(local.name, real)
-            except Exception as exc:
-                names = _declared(real)
-                for kind, reg in ALL.items():
-                    started = reg.forget(str(path))
-                    if names is not None:
-                        names.setdefault(kind, set()).update(started)
-                _failures.append(Failure(str(path), " ".join(_where(exc, real).split()), names))
-            else:
-                _local_modules[local.name] = local
+                read = _read_plugin(folder, real_folder, entry, dir_fd)
+            except OSError as exc:
+                _failures.append(Failure(str(folder / entry), f"{type(exc).__name__}: {exc}", None))
+                continue
+            if read is not None:
+                name, source = read
+                _import_file(folder, folder / name, real_folder / name, source)
+    finally:
+        os.close(dir_fd)
+
+
+def _import_file(folder: Path, path: Path, real: Path, source: bytes) -> None:
+    """Run one checked plugin file (``source``, the bytes read from ``real``) once per process; a failure is
+    recorded with the names it declares, not raised."""
+    if real in _loaded_files:
+        return
+    _loaded_files.add(real)
+    _imported.append((_absolute(folder), path.name))
+    local = LocalModule(_module_name(real, source), str(path), str(real), source)
+    with _importing(str(path)):
+        try:
+            _exec(local.name, real, source)
+        except Exception as exc:
+            names = _declared(real, source)
+            for kind, reg in ALL.items():
+                started = reg.forget(str(path))
+                if names is not None:
+                    names.setdefault(kind, set()).update(started)
+            _failures.append(Failure(str(path), " ".join(_where(exc, real).split()), names))
+        else:
+            _local_modules[local.name] = local
 
 
 @dataclass(frozen=True)
@@ -324,18 +467,19 @@ def _module_name(real: Path, source: bytes) -> str:
     return f"{LOCAL_PACKAGE}.{stem}_{digest}"
 
 
-def _exec(name: str, file: Path) -> None:
-    """Import ``file`` as the module ``name`` inside the local plugins' package (made on first use)."""
+def _exec(name: str, file: Path, source: bytes) -> None:
+    """Import ``source``, the bytes of ``file``, as the module ``name`` inside the local plugins' package (made
+    on first use). The bytes are the ones already read and checked: the file is not opened again."""
     if LOCAL_PACKAGE not in sys.modules:
         package = types.ModuleType(LOCAL_PACKAGE, "Local plugin files, imported by path.")
         package.__path__ = []  # a package: its modules import, and so unpickle, by name
         sys.modules[LOCAL_PACKAGE] = package
     spec = importlib.util.spec_from_file_location(name, file)
-    assert spec is not None and spec.loader is not None
+    assert spec is not None
     module = importlib.util.module_from_spec(spec)
     sys.modules[name] = module
     try:
-        spec.loader.exec_module(module)
+        exec(compile(source, str(file), "exec", dont_inherit=True), module.__dict__)  # noqa: S102 - the plugin
     except BaseException:
         sys.modules.pop(name, None)
         raise
@@ -364,7 +508,7 @@ def import_local(local: LocalModule, spare: Path) -> None:
         reg._discover()  # built-ins first: one the file imports is not taken for one of its plugins
     with _importing(local.origin):
         try:
-            _exec(local.name, file)
+            _exec(local.name, file, local.source)
         finally:
             for reg in ALL.values():
                 reg.forget(local.origin)

@@ -11,6 +11,7 @@ from __future__ import annotations
 import copy
 import itertools
 import math
+import os
 import re
 import reprlib
 from dataclasses import dataclass, field
@@ -200,10 +201,6 @@ def _set(src: Source, path: Path, value: Any, marks: dict[Path, Mark]) -> None:
     src.keys[path] = marks.get((), src.mark(path))
 
 
-def _subtree_marks(src: Source, path: Path) -> dict[Path, Mark]:
-    return {p[len(path):]: m for p, m in src.values.items() if p[: len(path)] == path}
-
-
 def apply_sets(src: Source, sets: list[str], notes: list[str] | None = None) -> Source:
     """Apply ``--set key.path=value`` overrides (values parsed as YAML) to a loaded config. A list item is
     chosen by index or by name (``outputs[2].count=all``, ``outputs[frames].count=all``; see ``select``).
@@ -269,6 +266,8 @@ def _keep_accepted(src: Source, section: Path, reg: registry.Registry[Any], name
     """Drop the keys of ``section`` that plugin ``name`` does not accept; return them, in the file's order."""
     try:
         params = reg.get(name).Params
+    except registry.UnknownName as exc:
+        raise ConfigError(exc.hinted(_above_hint(src.file)), file=where) from None
     except ConfigError as exc:
         raise ConfigError(exc.message, file=where) from None
     accepted = {f.alias or k for k, f in params.model_fields.items()} | set(params.model_fields) | {"name"}
@@ -350,6 +349,8 @@ def _plugin(reg: registry.Registry[Any], section: dict[str, Any], key: str, src:
     try:
         cls = reg.get(name)
         registry.require_available(reg.kind, name, cls)
+    except registry.UnknownName as exc:
+        raise src.error(prefix + (key,), exc.hinted(_above_hint(src.file))) from None
     except ConfigError as exc:
         raise src.error(prefix + (key,), exc.message) from None
     rest = {k: v for k, v in section.items() if k != key}
@@ -367,23 +368,41 @@ class _Override(NamedTuple):
     marks: dict[Path, Mark]
 
 
-def _override(src: Source, key: str, value: Any, origin: Path, key_origin: Path) -> _Override:
-    """Check a per-run override key (refused at ``key_origin``) and bundle it with its value."""
+def _override(src: Source, key: str, value: Any, origin: Path, key_origin: Path,
+              marks: dict[Path, Mark]) -> _Override:
+    """Check a per-run override key (refused at ``key_origin``) and bundle it with its value and ``marks``, those
+    of the value's own keys and items (see ``_marks_below``)."""
     try:
         path = parse_key(key)
     except ValueError as exc:
         raise src.error(key_origin, str(exc), key=True) from None
     if path[0] not in RUN_KEYS:
         raise src.error(key_origin, f"only {', '.join(RUN_KEYS)} can be overridden per run", key=True)
-    return _Override(key, path, value, origin, _subtree_marks(src, origin))
+    return _Override(key, path, value, origin, marks)
+
+
+def _marks_below(src: Source, top: Path, depth: int) -> dict[Path, dict[Path, Mark]]:
+    """The marks of every value ``depth`` levels below ``top`` (each run's overrides, each grid value) and of
+    what is inside it, relative to it, by that value's path: one pass over the config's marks for all of them,
+    where a pass for each would make checking ten thousand runs take minutes (their count times the config's
+    values)."""
+    out: dict[Path, dict[Path, Mark]] = {}
+    at = len(top) + depth
+    for path, mark in src.values.items():
+        if len(path) >= at and path[: len(top)] == top:
+            out.setdefault(path[:at], {})[path[at:]] = mark
+    return out
 
 
 def _variants(exp: ExperimentModel, src: Source) -> Iterator[tuple[str, Source, dict[str, Any]]]:
     """The runs of an experiment: (name, the run's part of the config with overrides applied, overrides), made
-    one at a time. A sweep's size is known from its grid's shape and checked against ``limits.max_runs``
-    before the first run is made."""
+    one at a time. How many there are, named or a sweep's (known from its grid's shape), is checked against
+    ``limits.max_runs`` before the first run is made."""
     if exp.runs is not None and exp.sweep is not None:
         raise src.error(("sweep",), "give either 'runs' or 'sweep', not both", key=True)
+    if exp.runs is not None and len(exp.runs) > exp.limits.max_runs:
+        raise src.error(("runs",), f"{len(exp.runs):,} named runs, over limits.max_runs = {exp.limits.max_runs:,}; "
+                                   "name fewer, or raise the limit (limits: {max_runs: N})", key=True)
     if exp.sweep is not None:
         size = math.prod(len(values) for values in exp.sweep.grid.values())
         if size > exp.limits.max_runs:
@@ -414,13 +433,17 @@ def _plans(exp: ExperimentModel, src: Source) -> Iterator[tuple[str, tuple[_Over
     if exp.runs is not None:
         if not exp.runs:
             raise src.error(("runs",), "'runs' is empty")
+        marks = _marks_below(src, ("runs",), 2)
         for name, sets in exp.runs.items():
-            yield name, tuple(_override(src, k, v, ("runs", name, k), ("runs", name, k)) for k, v in sets.items())
+            yield name, tuple(_override(src, k, v, ("runs", name, k), ("runs", name, k),
+                                        marks.get(("runs", name, k), {})) for k, v in sets.items())
     elif exp.sweep is not None:
         options = []  # per grid key, one override per value: each key is checked once, not once per run
+        marks = _marks_below(src, ("sweep", "grid"), 2)
         for k, values in exp.sweep.grid.items():
             key_origin = ("sweep", "grid", k)
-            options.append([_override(src, k, v, (*key_origin, i), key_origin) for i, v in enumerate(values)])
+            options.append([_override(src, k, v, (*key_origin, i), key_origin, marks.get((*key_origin, i), {}))
+                            for i, v in enumerate(values)])
         for index, sets in enumerate(itertools.product(*options)):
             fill = {"index": str(index), **{o.key: _fmt(o.value) for o in sets}}
             try:
@@ -537,6 +560,7 @@ def build(src: Source) -> ExperimentSpec:
     spec = ExperimentSpec(src.file, FsPath(src.file).stem, exp.description, runs, exp.limits, outputs=outputs,
                           source=src, resolved=_resolved(exp, runs, outputs), bench=exp.bench)
     written: list[tuple[str, int]] = []
+    drawn = 0  # pictures of every output so far: many renderers must not multiply past limits.max_frames
     for i, output in enumerate(outputs):
         prefix: Path = ("outputs", i)
         if output.needs_runs and not runs:
@@ -549,6 +573,11 @@ def build(src: Source) -> ExperimentSpec:
                             f"{other.scene.model!r} (run {other.name!r})")
         output.check(spec, lambda path, msg, prefix=prefix: src.error(prefix + path, msg))
         confine(output, lambda path, msg, prefix=prefix: src.error(prefix + path, msg))
+        drawn += output.pictures()
+        if drawn > exp.limits.max_frames:
+            raise src.error(prefix, f"the outputs up to this one draw {drawn:,} pictures, over limits.max_frames = "
+                            f"{exp.limits.max_frames:,} for the whole experiment; draw fewer frames or raise the "
+                            "limit (limits: {max_frames: N})")
         written += [(name, i) for name in output.files()]
     clash = clashes(written)
     if clash is not None:
@@ -584,30 +613,55 @@ def _resolved(exp: ExperimentModel, runs: list[RunSpec], outputs: list[Output]) 
     }
 
 
-def nearest_plugins(config: str) -> FsPath | None:
-    """The ``plugins/`` folder nearest to a config: in its folder or the closest folder above it."""
-    for folder in FsPath(config).resolve().parents:
+def own_plugins(config: str) -> FsPath:
+    """The ``plugins/`` folder in a config's own folder, whether it exists or not: the one folder loading the
+    config imports from when ``--plugins`` names none. Folders above are never imported: a config in a shared
+    or downloaded tree does not run code that someone left in a folder above it."""
+    return FsPath(config).absolute().parent.resolve() / "plugins"
+
+
+def plugins_above(config: str) -> FsPath | None:
+    """The nearest ``plugins/`` folder above a config's own folder (None: none): never imported, only named
+    when the config asks for a plugin nobody defines."""
+    for folder in own_plugins(config).parent.parents:
         if (folder / "plugins").is_dir():
             return folder / "plugins"
     return None
 
 
+def _above_hint(config: str) -> str:
+    """What to add to an unknown plugin name's error: a ``plugins/`` folder above the config, which was not
+    imported, and how to name it (empty when there is none, or it was named with ``--plugins``)."""
+    if not FsPath(config).is_file():
+        return ""  # a config made from a dict (the Python API) has no folder
+    above = plugins_above(config)
+    if above is None or above in registry.plugin_folders():
+        return ""
+    try:
+        shown = min(os.path.relpath(above), str(above), key=len)  # ../../plugins, not ../home/me/lab/plugins
+    except ValueError:  # another drive
+        shown = str(above)
+    return f"; plugins/ folders above the config are not imported: name one with --plugins {shown};"
+
+
 def local_plugins(plugins: FsPath | None, default: FsPath | None) -> FsPath | None:
     """Import the local plugins of ``--plugins DIR`` (refused when it is not a folder), else of ``default``
-    when it is one; return the folder used."""
+    when it is one; return the folder imported from (None: none)."""
     if plugins is not None and not plugins.is_dir():
         raise ConfigError("--plugins: no such folder", file=str(plugins))
     folder = plugins if plugins is not None else default
-    if folder is not None:
-        registry.load_local_plugins(folder)
-    return folder
+    if folder is None:
+        return None
+    registry.load_local_plugins(folder)  # also remembers an absent folder: outputs may not create it
+    return folder if folder.is_dir() else None
 
 
 def load(path: str, sets: list[str] | None = None, plugins: FsPath | None = None,
          notes: list[str] | None = None) -> ExperimentSpec:
-    """Load, override and validate one config file; local plugins (``--plugins`` or nearest) come first.
-    What an override changed beyond its own key (see ``apply_sets``) is added to ``notes``."""
-    folder = local_plugins(plugins, nearest_plugins(path) if plugins is None else None)
+    """Load, override and validate one config file; local plugins (``--plugins DIR``, else the ``plugins/``
+    folder beside the config) come first. What an override changed beyond its own key (see ``apply_sets``) is
+    added to ``notes``."""
+    folder = local_plugins(plugins, own_plugins(path) if plugins is None else None)
     src = load_file(path)
     if sets:
         src = apply_sets(src, sets, notes)

@@ -3,10 +3,10 @@
 An output folder may come from anyone, and its manifest is data anyone can edit, so the manifest never
 decides what code runs. What runs is named by the user:
 - ``stackx verify DIR CONFIG...``: the named config files (or folders of them), and the local plugins that
-  ``stackx run CONFIG...`` would import with them (``--plugins P``, else the ``plugins/`` folder nearest to
-  each config); each config re-makes the experiment of its name, with the ``--set`` overrides the manifest
-  records for it (values, never code). Experiments whose config is not named are not run again; their files
-  on disk are still checked against the manifest's SHA-256.
+  ``stackx run CONFIG...`` would import with them (``--plugins P``, else the ``plugins/`` folder in each
+  config's own folder, never one above); each config re-makes the experiment of its name, with the ``--set``
+  overrides the manifest records for it (values, never code). Experiments whose config is not named are not
+  run again; their files on disk are still checked against the manifest's SHA-256.
 - ``stackx verify DIR --trust``: the configs and the plugin folder the manifest records, only when they lie
   inside ``DIR`` (a relative path, no ``..``, no link leading out); an absolute or escaping path is refused,
   exit 2, before anything is imported. Everything it will run and import is listed first.
@@ -14,21 +14,28 @@ Either way nothing in ``DIR`` is written: outputs are made in memory. Each artif
 the re-run against the manifest's SHA-256, the file on disk against the manifest, and, where they differ,
 the re-run against the file on disk, to give the first byte that differs. The manifest entry the re-run would
 write (resolved config, plugins used) is compared too. Files listed as volatile (``timing.json``) are left out.
+A file's size is compared with the manifest's before a byte of it is read, files are hashed and compared
+``manifest.CHUNK`` at a time, and a manifest over ``manifest.RECORD_BYTES`` is refused unread, so no file in
+the folder, however large (a sparse file costs its maker nothing), takes its size in memory.
 Every file in ``DIR`` that the manifest does not know (``strays``) is a difference too: a stray frame is shown
 by a player page as if it belonged to the run.
 """
 
 from __future__ import annotations
 
+import hashlib
+import io
 import json
 import os
-from collections.abc import Callable
+import stat
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, BinaryIO
 
 from stackx.output import manifest
-from stackx.errors import ConfigError, StackxError
+from stackx.errors import ConfigError, StackxError, readable
 from stackx.output.outdir import FAILED_SUFFIX
 
 Say = Callable[[str], None]
@@ -45,10 +52,76 @@ class Replay:
     plugins: Path | None
 
 
-def first_difference(a: bytes, b: bytes) -> str:
-    """Where two byte strings first differ, in words."""
-    n = next((i for i, (x, y) in enumerate(zip(a, b)) if x != y), min(len(a), len(b)))
-    return f"first different byte at offset {n} ({len(a)} bytes against {len(b)})"
+@dataclass(frozen=True)
+class OnDisk:
+    """An artifact's file on disk against its manifest entry: whether there is one (a regular file), its size,
+    and whether its bytes are the listed ones."""
+
+    present: bool
+    size: int = 0
+    matches: bool = False
+
+
+def _open_file(path: Path) -> BinaryIO | None:
+    """``path`` open for reading when it is a regular file, else None (missing, a folder, a FIFO, a device).
+    Opened without waiting, so a FIFO put in a file's place cannot hold verify up."""
+    try:
+        fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_CLOEXEC", 0))
+    except (OSError, ValueError):
+        return None
+    fh = os.fdopen(fd, "rb")
+    if not stat.S_ISREG(os.fstat(fd).st_mode):
+        fh.close()
+        return None
+    return fh
+
+
+@contextmanager
+def _reader(source: bytes | Path) -> Iterator[tuple[Callable[[int], bytes], int]]:
+    """A ``read(n)`` over bytes in memory or a file on disk, and its size (a file that is gone reads empty)."""
+    if isinstance(source, bytes):
+        stream, size = io.BytesIO(source), len(source)
+    else:
+        fh = _open_file(source)
+        stream, size = (fh, os.fstat(fh.fileno()).st_size) if fh is not None else (io.BytesIO(), 0)
+    with stream:
+        yield stream.read, size
+
+
+def first_difference(a: bytes | Path, b: bytes | Path) -> str:
+    """Where two byte strings (a file's bytes, or bytes in memory) first differ, in words. Files are read
+    ``manifest.CHUNK`` at a time and only up to the first difference, so a huge file beside a small re-run
+    costs no more than the re-run's size in reading."""
+    offset = 0
+    with _reader(a) as (read_a, size_a), _reader(b) as (read_b, size_b):
+        while True:
+            x, y = read_a(manifest.CHUNK), read_b(manifest.CHUNK)
+            if x != y or not x:
+                offset += next((i for i, (p, q) in enumerate(zip(x, y)) if p != q), min(len(x), len(y)))
+                return f"first different byte at offset {offset} ({size_a} bytes against {size_b})"
+            offset += len(x)
+
+
+def _listed_size(listed: dict[str, Any]) -> int | None:
+    """The size the manifest lists for an artifact, when it lists one that is a size."""
+    size = listed.get("bytes")
+    return size if isinstance(size, int) and not isinstance(size, bool) and size >= 0 else None
+
+
+def _look(disk: Path, listed: dict[str, Any]) -> OnDisk:
+    """The file on disk against its manifest entry. The sizes are compared first, so a file of another size is
+    a difference without a byte read; one of the listed size is hashed in chunks."""
+    fh = _open_file(disk)
+    if fh is None:
+        return OnDisk(False)
+    with fh:
+        size, listed_size = os.fstat(fh.fileno()).st_size, _listed_size(listed)
+        if listed_size is not None and size != listed_size:
+            return OnDisk(True, size, False)
+        digest = hashlib.sha256()
+        for piece in manifest.chunks(fh):
+            digest.update(piece)
+        return OnDisk(True, size, digest.hexdigest() == listed["sha256"])
 
 
 def _shown(text: str) -> str:
@@ -56,29 +129,31 @@ def _shown(text: str) -> str:
     return text if text.isprintable() else json.dumps(text)
 
 
-def _on_disk(name: str, listed: dict[str, Any], disk: Path, fresh: bytes | None) -> list[str]:
-    """What is wrong with the file on disk against the manifest (against the re-run too, when there is one)."""
-    on_disk = disk.read_bytes() if disk.is_file() else None
-    if on_disk is None:
+def _on_disk(name: str, listed: dict[str, Any], disk: Path, fresh: bytes | None,
+             seen: OnDisk | None = None) -> list[str]:
+    """What is wrong with the file on disk against the manifest (against the re-run too, when there is one);
+    ``seen``: the file already looked at."""
+    seen = seen or _look(disk, listed)
+    if not seen.present:
         return [f"{name}: missing from {disk.parent}"]
-    if manifest.sha256(on_disk) == listed["sha256"]:
+    if seen.matches:
         return []
-    against = f"; against the re-run: {first_difference(on_disk, fresh)}" if fresh is not None else ""
-    return [f"{name}: the file on disk differs from the manifest (changed after the run){against}"]
+    size = _listed_size(listed)
+    sizes = f"; {seen.size} bytes, the manifest lists {size}" if size is not None and size != seen.size else ""
+    against = f"; against the re-run: {first_difference(disk, fresh)}" if fresh is not None else ""
+    return [f"{name}: the file on disk differs from the manifest (changed after the run){sizes}{against}"]
 
 
 def _artifact(name: str, listed: dict[str, Any], fresh: bytes | None, disk: Path) -> list[str]:
     """What is wrong with one artifact, as lines (none when every copy agrees)."""
     problems = []
-    on_disk = disk.read_bytes() if disk.is_file() else None
-    disk_ok = on_disk is not None and manifest.sha256(on_disk) == listed["sha256"]
+    seen = _look(disk, listed)
     if fresh is None:
         problems.append(f"{name}: listed in the manifest, but the re-run does not write it")
     elif manifest.sha256(fresh) != listed["sha256"]:
-        against = (f"; against the file on disk: {first_difference(fresh, on_disk)}" if disk_ok and on_disk
-                   is not None else "")
+        against = f"; against the file on disk: {first_difference(fresh, disk)}" if seen.matches else ""
         problems.append(f"{name}: the re-run differs from the manifest{against}")
-    return problems + _on_disk(name, listed, disk, fresh)
+    return problems + _on_disk(name, listed, disk, fresh, seen)
 
 
 def _plugin_files(folder: Path) -> list[Path]:
@@ -101,9 +176,10 @@ def _sets(folder: Path, name: str, listed: dict[str, Any]) -> list[str]:
 
 def named(folder: Path, experiments: dict[str, Any], paths: list[str], plugins: Path | None) -> list[Replay]:
     """The experiments re-made from configs named on the command line, each matched by its name (the file
-    stem, as ``stackx run`` names it), with the plugins ``stackx run`` would import for it; a ``plugins/``
-    folder inside ``folder`` is imported only when ``--plugins`` names it (configs are data, plugins code)."""
-    from stackx.config.experiment import config_files, nearest_plugins
+    stem, as ``stackx run`` names it), with the plugins ``stackx run`` would import for it; a config's own
+    ``plugins/`` folder inside ``folder`` is imported only when ``--plugins`` names it (configs are data,
+    plugins code)."""
+    from stackx.config.experiment import config_files, own_plugins
 
     if plugins is not None and not plugins.is_dir():
         raise ConfigError("--plugins: no such folder", file=str(plugins))
@@ -117,9 +193,11 @@ def named(folder: Path, experiments: dict[str, Any], paths: list[str], plugins: 
         if name in replays:
             raise ConfigError(f"also makes experiment {name!r}, named by {replays[name].config}; name one",
                               file=config)
-        found = nearest_plugins(config) if plugins is None else None
+        found = own_plugins(config) if plugins is None else None
+        if found is not None and not (found.is_dir() or found.is_symlink()):
+            found = None
         if found is not None and found.resolve().is_relative_to(folder.resolve()):
-            raise ConfigError(f"its nearest plugins/ folder, {found}, lies inside {folder}, the folder being "
+            raise ConfigError(f"its plugins/ folder, {found}, lies inside {folder}, the folder being "
                               f"verified: name it with --plugins to import it, or use --trust", file=config)
         replays[name] = Replay(name, Path(config), _sets(folder, name, experiments[name]), plugins or found)
     return [replays[name] for name in sorted(replays)]
@@ -130,9 +208,9 @@ def trusted(folder: Path, experiments: dict[str, Any]) -> list[Replay]:
 
     Refused whole, before anything is imported, when any of them is not: an absolute or escaping path, a link
     leading out, a plugin file that is a link to elsewhere, or a ``plugins/`` folder that loading the config
-    would pick up (the nearest at or above it) where the manifest records none.
+    would pick up (the one in its own folder) where the manifest records none.
     """
-    from stackx.config.experiment import nearest_plugins
+    from stackx.config.experiment import own_plugins
 
     replays = []
     for name, listed in sorted(experiments.items()):
@@ -155,10 +233,10 @@ def trusted(folder: Path, experiments: dict[str, Any]) -> list[Replay]:
                 if not file.resolve().is_relative_to(folder.resolve()):
                     raise _refused(folder, f"{key}.plugins", f"plugin file {file} is a link to {file.resolve()}")
         else:
-            nearest = nearest_plugins(str(config))
-            if nearest is not None:
+            own = own_plugins(str(config))
+            if own.is_dir() or own.is_symlink():
                 raise _refused(folder, f"{key}.plugins", f"the manifest records no plugin folder, but loading "
-                                                         f"the config would import {nearest} (nearest to it)")
+                                                         f"the config would import {own} (in its folder)")
         replays.append(Replay(name, config, _sets(folder, name, listed), plugins))
     return replays
 
@@ -174,6 +252,22 @@ def _describe(replay: Replay) -> str:
     return f"run  {replay.name}: {replay.config}{sets} ({imports})"
 
 
+def _import_plugins(replays: list[Replay], notice: Say | None) -> None:
+    """Import the plugin folders the replays name, each checked as every command checks them (a planted or
+    foreign file refused before any of it runs), and name the files imported in one line."""
+    from stackx import registry
+    from stackx.config.experiment import local_plugins
+
+    before = registry.imported_count()
+    try:
+        for plugins in dict.fromkeys(replay.plugins for replay in replays if replay.plugins is not None):
+            local_plugins(plugins, None)
+    finally:  # what ran is named even when a later folder is refused
+        line = registry.imported_line(before)
+        if line is not None and notice is not None:
+            notice(line)
+
+
 def verify_experiment(folder: Path, replay: Replay, listed: dict[str, Any], say: Say) -> int:
     """Re-make one experiment of the manifest; report and count what differs."""
     from stackx.config.experiment import load
@@ -181,13 +275,13 @@ def verify_experiment(folder: Path, replay: Replay, listed: dict[str, Any], say:
     from stackx.run.session import stage
 
     name = replay.name
-    if manifest.sha256(replay.config.read_bytes()) != listed.get("config_sha256"):
+    if manifest.file_sha256(replay.config) != listed.get("config_sha256"):
         say(f"note {name}: {replay.config} has changed since the run")
     try:
         spec = load(str(replay.config), replay.sets or None, replay.plugins)
         files = stage(spec, run_experiment(spec), folder).staged
     except StackxError as exc:
-        say(f"DIFF {name}: the re-run failed: {exc}")
+        say(f"DIFF {name}: the re-run failed: {readable(str(exc))}")
         return 1
     problems = []
     for artifact, entry in sorted(listed["artifacts"].items()):
@@ -265,9 +359,10 @@ def strays(folder: Path, experiments: dict[str, Any]) -> list[str]:
 
 
 def verify(folder: Path, say: Say, configs: list[str] | None = None, plugins: Path | None = None,
-           trust: bool = False) -> int:
+           trust: bool = False, notice: Say | None = None) -> int:
     """Verify an output folder against the named ``configs`` (or, with ``trust``, the configs it holds);
-    return the number of differences (0: every byte of what was checked identical)."""
+    return the number of differences (0: every byte of what was checked identical). The local plugin files
+    imported are named in one line to ``notice`` before anything runs."""
     doc = manifest.read(folder)
     if doc is None:
         raise ConfigError(f"no {manifest.MANIFEST} here; run 'stackx run ... --out {folder}' first", file=str(folder))
@@ -286,6 +381,7 @@ def verify(folder: Path, say: Say, configs: list[str] | None = None, plugins: Pa
                           file=str(folder))
     for line in map(_describe, replays):
         say(line)
+    _import_plugins(replays, notice)
     for dep, now in manifest.versions().items():
         then = doc.get("versions", {}).get(dep)
         if then != now:
@@ -299,7 +395,7 @@ def verify(folder: Path, say: Say, configs: list[str] | None = None, plugins: Pa
     differences += len(unknown)
     artifacts = sum(len(experiments[name]["artifacts"]) for name in chosen)
     skipped = len(experiments) - len(chosen)
-    digest = manifest.sha256((folder / manifest.MANIFEST).read_bytes())
+    digest = manifest.file_sha256(folder / manifest.MANIFEST)
     ran = f"{len(chosen)} experiment(s)" + (f" of {len(experiments)} ({skipped} not named)" if skipped else "")
     if differences:
         say(f"verify: {differences} difference(s) in {folder} ({ran} run again, {artifacts} artifact(s))")

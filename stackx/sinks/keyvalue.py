@@ -6,6 +6,8 @@ Values are expressions over the runs' measures (see ``stackx.config.expr``) and 
 
 from __future__ import annotations
 
+import re
+
 from pydantic import BaseModel, ConfigDict, Field, field_validator
 
 from stackx.errors import RunError
@@ -13,12 +15,22 @@ from stackx.config.expr import ExprError, Known, evaluate
 from stackx.outputs import Sink
 from stackx.registry import sinks
 
+KEY = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
+"""What a key may be: an identifier. A line of the file is then ``name=number`` and nothing else, whatever the
+config holds, so the file reads back as data (and is never, say, a line of code)."""
+
+
+def _shown(key: str) -> str:
+    """A key for an error line: quoted, cut to a readable length."""
+    return repr(key) if len(key) <= 40 else repr(key[:37]) + "..."
+
 
 class KeyValueParams(BaseModel):
     model_config = ConfigDict(extra="forbid")
     path: str = Field(description="text file to write")
     values: dict[str, str] = Field(min_length=1, description="key -> expression, e.g. y1: y[0], "
-                                   "improved: sink.depth[0] - fixed.depth[0]")
+                                   "improved: sink.depth[0] - fixed.depth[0]; a key is an identifier",
+                                   json_schema_extra={"propertyNames": {"pattern": f"^{KEY.pattern}$"}})
 
     @field_validator("values", mode="before")
     @classmethod
@@ -26,14 +38,6 @@ class KeyValueParams(BaseModel):
         if isinstance(values, dict):
             return {k: str(v) if isinstance(v, (int, float)) and not isinstance(v, bool) else v
                     for k, v in values.items()}
-        return values
-
-    @field_validator("values")
-    @classmethod
-    def _keys(cls, values: dict[str, str]) -> dict[str, str]:
-        for key in values:
-            if not key or any(c in key for c in "=\n\r"):
-                raise ValueError(f"key {key!r} cannot be empty or hold '=' or a line break")
         return values
 
 
@@ -49,6 +53,9 @@ class KeyValue(Sink):
     def check(self, spec, fail) -> None:  # type: ignore[no-untyped-def]
         runs = self._runs(spec)
         for key, text in self.params.values.items():
+            if not KEY.fullmatch(key):
+                raise fail(("values", key), f"key {_shown(key)} is not an identifier: letters, digits and _, not "
+                                            "starting with a digit (e.g. max_depth)")
             try:
                 evaluate(text, runs)
             except ExprError as exc:

@@ -205,8 +205,10 @@ def test_a_column_solver_on_the_pendulum_is_refused_at_its_key(cli: Cli, tmp_pat
     lines = config.read_text().splitlines()
     line = next(i for i, text in enumerate(lines) if "pgs" in text)
     col = lines[line].index("pgs") + 1
-    assert done.stderr.strip() == (f"error: {config}:{line + 1}:{col}: solver.name: solver 'pgs' steps column scenes, "
-                                   "not 'pendulum' (scene 'pendulum'); solvers of 'pendulum': symplectic")
+    assert done.stderr.strip().splitlines() == [
+        f"plugins: imported pendulum.py from {tmp_path / 'plugins'}",
+        f"error: {config}:{line + 1}:{col}: solver.name: solver 'pgs' steps column scenes, not 'pendulum' (scene "
+        "'pendulum'); solvers of 'pendulum': symplectic"]
     assert not (tmp_path / "out").exists()
 
 

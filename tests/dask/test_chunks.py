@@ -25,6 +25,7 @@ from stackx.run.session import stage
 from stackx.solvers.column.pgs import PGS
 from tests.conftest import REPO
 from tests.dask.configs import BLOWS, SWEEP, write
+from tests.limits import hang_limit
 
 
 def _wire(obj: Any) -> Any:
@@ -150,7 +151,7 @@ def test_a_worker_imports_local_plugins_under_the_senders_names(tmp_path: Path) 
     """In a fresh process, as on a worker: the example plugin file, shipped with its source to a path where it
     is not, is imported under its module name, its runs unpickle, the built-in solver it imports keeps its
     own origin, and the worker's registry keeps nothing of it."""
-    spec = load(str(REPO / "configs" / "examples" / "sor-stack.yaml"))
+    spec = load(str(REPO / "configs" / "examples" / "sor-stack.yaml"), plugins=REPO / "plugins")
     from stackx import registry
 
     (module,) = [m for m in registry.local_modules() if m.path == str(REPO / "plugins" / "sor.py")]
@@ -172,7 +173,7 @@ print(run.solver_cls.__module__, run.solver_cls.plugin_origin, PGS.plugin_origin
 """
     payload = pickle.dumps((elsewhere, pickle.dumps(spec.runs)))
     done = subprocess.run([sys.executable, "-c", code, str(tmp_path / "spare")], input=payload, cwd=REPO,
-                          capture_output=True, timeout=120)
+                          capture_output=True, timeout=hang_limit(120))
     assert done.returncode == 0, done.stderr.decode()
     name, origin, pgs_origin, kept, omega = done.stdout.decode().split()
     assert name == module.name and origin == module.origin and pgs_origin == "built-in" and kept == "False"

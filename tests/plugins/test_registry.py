@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import shutil
 import subprocess
 import sys
 import textwrap
@@ -37,14 +38,15 @@ def test_duplicate_name_names_both_sources(cli: Cli, tmp_path: Path) -> None:
         class Again(PGS):
             pass
     """))
-    done = cli("validate", CONFIGS / "06-stack.yaml", "--plugins", plugins)
+    shutil.copy(CONFIGS / "06-stack.yaml", tmp_path / "06-stack.yaml")
+    done = cli("validate", "06-stack.yaml", "--plugins", "plugins", cwd=tmp_path)  # short names: a line not cut
     assert done.returncode == 2
     assert "defined twice" in done.stderr and "built-in" in done.stderr and "again.py" in done.stderr
 
 
 def test_example_plugin_is_found_without_installing(cli: Cli, tmp_path: Path) -> None:
     """configs/examples/sor-stack.yaml names 'sor' from plugins/sor.py; omega 1 is the lab solver exactly."""
-    done = cli("run", CONFIGS / "examples" / "sor-stack.yaml", "--out", tmp_path, "-q")
+    done = cli("run", CONFIGS / "examples" / "sor-stack.yaml", "--plugins", REPO / "plugins", "--out", tmp_path, "-q")
     assert done.returncode == 0, done.stderr
     got = dict(ln.split("=", 1) for ln in (tmp_path / "sor-stack.txt").read_text().splitlines())
     lab = ref.max_depth(ref.stack_run().final)

@@ -1,7 +1,8 @@
 """verify runs only what the user names: a tampered manifest imports nothing and writes nothing.
 
-Every case starts from a self-contained folder made by ``stackx run DIR/configs --out DIR`` (its configs and its
-empty ``plugins/`` folder inside it), then edits its manifest the way someone sending it could. A planted
+Every case starts from a self-contained folder made by ``stackx run DIR/configs --out DIR`` (its configs and their
+empty ``plugins/`` folder, ``DIR/configs/plugins``, inside it), then edits its manifest the way someone sending it
+could. A planted
 plugin file writes a marker file when imported; verify runs in a subprocess, so an import anywhere shows as
 the marker, and every file under the test's temporary folder is compared before and after.
 """
@@ -25,15 +26,14 @@ CONFIG = "03-sink.yaml"
 
 @pytest.fixture(scope="module")
 def made(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """A folder holding its configs, its (empty) plugin folder and what ``stackx run`` made from them."""
+    """A folder holding its configs, their (empty) plugin folder and what ``stackx run`` made from them."""
     bundle = tmp_path_factory.mktemp("made") / "bundle"
-    (bundle / "configs").mkdir(parents=True)
-    (bundle / "plugins").mkdir()
+    (bundle / "configs" / "plugins").mkdir(parents=True)
     shutil.copy(CONFIGS / CONFIG, bundle / "configs" / CONFIG)
     result = CliRunner().invoke(app, ["run", str(bundle / "configs"), "--out", str(bundle), "-q"])
     assert result.exit_code == 0, result.output
     entry = json.loads((bundle / "manifest.json").read_text())["experiments"]["03-sink"]
-    assert (entry["config"], entry["plugins"]) == ("configs/03-sink.yaml", "plugins")
+    assert (entry["config"], entry["plugins"]) == ("configs/03-sink.yaml", "configs/plugins")
     return bundle
 
 
@@ -97,23 +97,24 @@ def test_trust_refuses_a_path_leading_out_before_importing_anything(cli: Cli, pl
     field, tamper, why = TAMPERED[case]
     tamper(bundle, elsewhere)
     before = _tree(bundle.parent)
-    done = cli("verify", bundle, "--trust", cwd=bundle.parent)
+    done = cli("verify", "bundle", "--trust", cwd=bundle.parent)  # named short: the line is not cut to fit
     assert done.returncode == 2, done.stdout + done.stderr
     assert done.stdout == ""  # nothing listed, nothing run
     assert done.stderr.count("\n") == 1
-    assert done.stderr.startswith(f"error: {bundle}/manifest.json: experiments.03-sink.{field}: "), done.stderr
-    assert why in done.stderr and f"--trust runs only configs and plugins inside {bundle}" in done.stderr
+    assert done.stderr.startswith(f"error: bundle/manifest.json: experiments.03-sink.{field}: "), done.stderr
+    assert why in done.stderr  # the line may be cut in its middle to fit: its end is kept
+    assert done.stderr.endswith("name the configs instead (stackx verify bundle CONFIG...)\n"), done.stderr
     assert not marker.exists()
     assert _tree(bundle.parent) == before
 
 
 def test_named_configs_ignore_every_path_the_manifest_names(cli: Cli, place: tuple[Path, Path, Path]) -> None:
-    """Absolute config, plugin folder elsewhere, a plugin planted in the folder's own plugins/: verify of a
+    """Absolute config, plugin folder elsewhere, a plugin planted in the folder's configs/plugins/: verify of a
     named config imports none of them, writes nothing, finds every artifact identical, and names the files
     in the folder that the manifest no longer accounts for."""
     bundle, elsewhere, marker = place
     _tamper(bundle, config=str(elsewhere / CONFIG), plugins=str(elsewhere / "plugins"))
-    _planted(bundle / "plugins", marker)
+    _planted(bundle / "configs" / "plugins", marker)
     mine = bundle.parent / "mine"
     mine.mkdir()
     shutil.copy(CONFIGS / CONFIG, mine / CONFIG)
@@ -123,7 +124,7 @@ def test_named_configs_ignore_every_path_the_manifest_names(cli: Cli, place: tup
     assert "ok   03-sink: 2 artifact(s) identical" in done.stdout
     # the folder's own config and the planted plugin are files its (tampered) manifest no longer knows
     assert [line.split(":")[1].strip() for line in done.stdout.splitlines() if line.startswith("DIFF")] == \
-           ["configs/03-sink.yaml", "plugins/planted.py"]
+           ["configs/03-sink.yaml", "configs/plugins/planted.py"]
     assert done.returncode == 1 and f"verify: 2 difference(s) in {bundle}" in done.stdout
     assert not marker.exists()
     assert _tree(bundle.parent) == before
@@ -132,13 +133,13 @@ def test_named_configs_ignore_every_path_the_manifest_names(cli: Cli, place: tup
 def test_a_named_config_inside_the_folder_does_not_import_its_plugins(cli: Cli,
                                                                        place: tuple[Path, Path, Path]) -> None:
     bundle, _, marker = place
-    _planted(bundle / "plugins", marker)
+    _planted(bundle / "configs" / "plugins", marker)
     before = _tree(bundle.parent)
-    done = cli("verify", bundle, bundle / "configs", cwd=bundle.parent)
+    done = cli("verify", "bundle", "bundle/configs", cwd=bundle.parent)
     assert done.returncode == 2 and done.stdout == ""
-    assert done.stderr == (f"error: {bundle / 'configs' / CONFIG}: its nearest plugins/ folder, {bundle / 'plugins'}, "
-                           f"lies inside {bundle}, the folder being verified: name it with --plugins to import it, "
-                           "or use --trust\n")
+    assert done.stderr == (f"error: bundle/configs/{CONFIG}: its plugins/ folder, {bundle / 'configs' / 'plugins'}, "
+                           "lies inside bundle, the folder being verified: name it with --plugins to import it, or "
+                           "use --trust\n")
     assert not marker.exists()
     assert _tree(bundle.parent) == before
 
@@ -146,11 +147,41 @@ def test_a_named_config_inside_the_folder_does_not_import_its_plugins(cli: Cli,
 def test_trust_lists_what_it_imports_then_imports_it(cli: Cli, place: tuple[Path, Path, Path]) -> None:
     """The planted plugin works (it writes its marker when imported), and --trust names it before it runs."""
     bundle, _, marker = place
-    _planted(bundle / "plugins", marker)
+    _planted(bundle / "configs" / "plugins", marker)
     done = cli("verify", bundle, "--trust", cwd=bundle.parent)
     assert done.returncode == 0, done.stdout + done.stderr
     lines = done.stdout.splitlines()
-    listed = f"run  03-sink: {bundle / 'configs' / CONFIG} (local plugins {bundle / 'plugins'}: planted.py)"
+    folder = bundle / "configs" / "plugins"
+    listed = f"run  03-sink: {bundle / 'configs' / CONFIG} (local plugins {folder}: planted.py)"
     assert lines[:2] == [f"trust: running what {bundle}/manifest.json records inside {bundle}:", listed]
     assert "every byte identical" in lines[-1]
+    assert done.stderr == f"plugins: imported planted.py from {folder}\n"
     assert marker.read_text() == "imported"
+
+
+def test_trust_neither_imports_nor_refuses_a_plugins_folder_above_the_configs(cli: Cli,
+                                                                             place: tuple[Path, Path, Path]) -> None:
+    """``plugins/`` beside ``configs/`` (above the configs' own folder) is not where their plugins come from: not
+    imported, not a reason to refuse; it is a file the manifest does not know, the one difference."""
+    bundle, _, marker = place
+    _planted(bundle / "plugins", marker)
+    done = cli("verify", bundle, "--trust", cwd=bundle.parent)
+    assert f"(local plugins {bundle / 'configs' / 'plugins'}: no *.py files)" in done.stdout
+    assert [line for line in done.stdout.splitlines() if line.startswith("DIFF")] == \
+           [f"DIFF stray: plugins/planted.py: in {bundle} but not in its manifest (left by another run, or put there)"]
+    assert done.returncode == 1 and done.stderr == ""
+    assert not marker.exists()
+
+
+def test_a_named_config_below_a_planted_plugins_folder_does_not_import_it(cli: Cli,
+                                                                          place: tuple[Path, Path, Path]) -> None:
+    """A config three folders below a ``plugins/`` folder someone left: verify runs it without importing it."""
+    bundle, _, marker = place
+    _planted(bundle.parent / "shared" / "plugins", marker)
+    deep = bundle.parent / "shared" / "a" / "b" / "c"
+    deep.mkdir(parents=True)
+    shutil.copy(CONFIGS / CONFIG, deep / CONFIG)
+    done = cli("verify", bundle, deep / CONFIG, cwd=deep)
+    assert f"run  03-sink: {deep / CONFIG} (no local plugins)" in done.stdout
+    assert "ok   03-sink: 2 artifact(s) identical" in done.stdout
+    assert done.returncode == 0 and done.stderr == "" and not marker.exists()
