@@ -4,7 +4,8 @@ A config may carry a top-level ``limits:`` section; every key has a default, so 
 The size limits are checked when the config is loaded, before anything steps, so a run that could not fit
 in memory or finish in reasonable time fails at once with the config's ``file:line:col`` instead of after
 an hour or with the machine swapping. ``max_speed`` is checked while stepping (see ``stackx.run.watch``), the size limits by
-``stackx.config.sizing``.
+``stackx.config.sizing``. How long a config's text may be is not a limit here: it is read before this section
+(``stackx.config.yamlsrc.MAX_TEXT_BYTES``).
 """
 
 from __future__ import annotations
@@ -35,10 +36,13 @@ class Limits(BaseModel):
         description="most steps x boxes one run may ask for: 1e9 is minutes to hours of stepping; the largest "
                     "shipped case (recovery-1000) asks for 1.2e7")
     max_frames: int = Field(
-        10_000, gt=0, description="most pictures one renderer may draw (each is a recorded state and a file)")
+        10_000, gt=0, description="most pictures one experiment may draw, summed over its renderers (each is a "
+                                  "recorded state and a file); a comparison draws its frames for every run it "
+                                  "shows, runs x frames pictures")
     max_runs: int = Field(
-        10_000, gt=0, description="most runs one experiment may have: the number of points of a sweep's grid "
-                                  "(the product of its lists' lengths), checked before any run is made")
+        10_000, gt=0, description="most runs one experiment may have: the runs it names, or the number of points "
+                                  "of a sweep's grid (the product of its lists' lengths), checked before any run "
+                                  "is made")
     max_work: float = Field(
         1e12, gt=0, allow_inf_nan=False,
         description="most box-steps times solver passes (iterations x substeps) one experiment may ask for; "

@@ -4,7 +4,8 @@ Configs are edited by hand, so every error must point at a line and column. PyYA
 on each node; this module turns the node tree into plain Python data plus a table from key paths to marks.
 Duplicate keys, which PyYAML silently lets the last one win, are refused, and so are aliases that would make a
 few hundred bytes expand into billions of values (see ``MAX_ALIAS_NODES``), documents of more than
-``MAX_NODES`` values or nested deeper than ``MAX_DEPTH``.
+``MAX_NODES`` values or nested deeper than ``MAX_DEPTH``, and texts longer than ``MAX_TEXT_BYTES`` (checked
+before parsing: a file by its size before it is read).
 
 Plain scalars are read by the YAML 1.2 core schema, not PyYAML's YAML 1.1: ``1:30`` is the text "1:30", not
 the base-60 number 90; ``010`` is ten, not eight; ``0x1F``, ``0o17``, ``0b101``, ``yes``, ``on`` and dates are
@@ -18,6 +19,7 @@ from __future__ import annotations
 
 import copy
 import math
+import os
 import re
 from dataclasses import dataclass, field
 from typing import Any
@@ -42,6 +44,13 @@ over the aliases as written, of the nodes each one names (anchors inside anchors
 building the data would add to the nodes written in the text.
 """
 
+
+MAX_TEXT_BYTES = 1 << 20
+"""Longest config text read, in UTF-8 bytes (1 MiB): a file is refused by its size before a byte is read, and
+a text given as it is (a ``--set`` value, a config made from a dict) before it is parsed. The shipped configs
+are 1 to 2 KB; a scene of 10,000 listed boxes fits. The limit keeps what loading one config may cost (reading,
+scanning, marks) near a second, whatever the text holds: the other bounds count values, and a single value can
+be a gigabyte long. It is fixed, not one of ``limits``: that section is inside the text, read after it."""
 
 MAX_NODES = 200_000
 """How many YAML nodes one document may hold as written (a few seconds and 50 MB to load with marks). The largest
@@ -240,7 +249,12 @@ _Loader.add_constructor(_TAG + "merge", lambda loader, node: node.value)  # "<<"
 
 
 def load_text(text: str, file: str) -> Source:
-    """Parse one YAML document; raise ``ConfigError`` with the position of any syntax error."""
+    """Parse one YAML document; raise ``ConfigError`` with the position of any syntax error, or naming
+    ``MAX_TEXT_BYTES`` when the text is longer."""
+    if len(text) > MAX_TEXT_BYTES // 4:  # a character is 1 to 4 bytes: shorter text needs no counting
+        size = len(text.encode("utf-8", "surrogatepass"))
+        if size > MAX_TEXT_BYTES:
+            raise _too_long(size, file, advise=False)
     try:
         loader = _Loader(text, file)
     except yaml.reader.ReaderError as exc:
@@ -275,9 +289,14 @@ def load_file(path: str) -> Source:
     """Read and parse a YAML file (errors name the file)."""
     try:
         with open(path, "rb") as fh:
-            raw = fh.read()
+            size = os.fstat(fh.fileno()).st_size
+            if size > MAX_TEXT_BYTES:
+                raise _too_long(size, path)
+            raw = fh.read(MAX_TEXT_BYTES + 1)  # a file that grew, or a device that has no size, stops here
     except OSError as exc:
         raise ConfigError(f"cannot read: {exc.strerror or exc}", file=path) from None
+    if len(raw) > MAX_TEXT_BYTES:
+        raise _too_long(None, path)
     try:
         text = raw.decode("utf-8")
     except UnicodeDecodeError as exc:
@@ -285,6 +304,17 @@ def load_file(path: str) -> Source:
         raise ConfigError(f"not UTF-8 text: byte {raw[exc.start]:#04x} cannot start a character", file=path,
                           **_position(good, len(good))) from None
     return load_text(text, path)
+
+
+def _too_long(size: int | None, file: str, advise: bool = True) -> ConfigError:
+    """The error for a text of ``size`` bytes (None: more than it was read of), over ``MAX_TEXT_BYTES``; for a
+    file (``advise``) with the way out, for a text given whole (a ``--set`` value, whose label is already long)
+    short, so the printed line keeps the sizes."""
+    told = f"{size:,} bytes" if size is not None else f"more than {MAX_TEXT_BYTES:,} bytes"
+    why = f"{told} of YAML, over the 1 MiB ({MAX_TEXT_BYTES:,} bytes) a config may hold"
+    if advise:
+        why += "; generate many boxes (stack: {count: N}) and runs (sweep: {grid: ...}) instead of listing them"
+    return ConfigError(why, file=file)
 
 
 def _build(loader: _Loader, node: yaml.Node, path: Path, src: Source) -> Any:

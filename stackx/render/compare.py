@@ -29,6 +29,7 @@ from typing import Any
 
 from pydantic import Field
 
+from stackx.errors import Fail
 from stackx.outputs import Renderer, template_problem
 from stackx.registry import renderers
 from stackx.render.draw import DRAWN, describe, framed, picture
@@ -75,16 +76,15 @@ class Compare(Renderer):
     def files(self) -> list[str]:
         return [name for run in self.runs for name in self.names(run)] + [self.params.path]
 
+    def pictures(self) -> int:
+        """How many pictures ``write`` draws: every frame of every run shown (``files`` less the page), known
+        from the config's shape without naming them."""
+        return len(self.runs) * self.count
+
     def check(self, spec, fail) -> None:  # type: ignore[no-untyped-def]
-        known = [r.name for r in spec.runs]
-        wanted = self.params.runs or known
-        for i, name in enumerate(wanted):
-            if name not in known:
-                raise fail(("runs", i), f"unknown run {name!r}; runs: {', '.join(known)}")
-            if name in wanted[:i]:
-                raise fail(("runs", i), f"run {name!r} is named twice")
-        self.runs = list(wanted)
-        chosen = [spec.run(name) for name in self.runs]
+        self.runs = _shown(self.params.runs, [r.name for r in spec.runs], fail)
+        by_name = {r.name: r for r in spec.runs}
+        chosen = [by_name[name] for name in self.runs]
         first = chosen[0]
         other = next((r for r in chosen if r.dt != first.dt), None)
         if other is not None:
@@ -92,6 +92,8 @@ class Compare(Renderer):
                        f"{other.name!r} (dt {other.dt:g} s) step differently: frames in step need one dt")
         shortest = min(chosen, key=lambda r: r.steps)
         self.count = frame_count(self.params, shortest.steps, fail, spec.limits.max_frames)
+        if self.pictures() > spec.limits.max_frames:
+            raise fail(("count",), _too_many_pictures(len(self.runs), self.count, spec.limits.max_frames))
         problem = template_problem(self.params.frames, {"run", "index"})
         if problem:
             raise fail(("frames",), problem)
@@ -110,10 +112,11 @@ class Compare(Renderer):
 
     def write(self, result, out) -> None:  # type: ignore[no-untyped-def]
         steps = self.steps()
-        style = framed([result.run(name).frames[k] for name in self.runs for k in steps], self.params.style)
+        by_name = {run.name: run for run in result.runs}
+        style = framed([by_name[name].frames[k] for name in self.runs for k in steps], self.params.style)
         panels = []
         for name in self.runs:
-            run = result.run(name)
+            run = by_name[name]
             images = self.names(name)
             for image, step in zip(images, steps):
                 out.write_bytes(image, picture(run.frames[step], style).png_bytes())
@@ -122,7 +125,28 @@ class Compare(Renderer):
             panels.append(Panel(name, f"{run.spec.solver_cls.plugin_name}: {settings}", images,
                                 [describe(run.frames[k]) for k in steps]))
         title = result.spec.description or result.spec.name
-        dt = result.run(self.runs[0]).spec.dt
+        dt = by_name[self.runs[0]].spec.dt
         page = controlled_player_html(title, panels, labels(steps, dt), self.params.interval_ms,
                                       (style.width, style.height))
         out.write_text(self.params.path, page)
+
+
+def _shown(wanted: list[str] | None, known: list[str], fail: Fail) -> list[str]:
+    """The runs to show, in order: ``wanted`` (each a run of the experiment, once) or every run. Checked with
+    sets, in time linear in the runs: an experiment may have ``limits.max_runs`` of them."""
+    if wanted is None:
+        return list(known)
+    names, seen = set(known), set()
+    for i, name in enumerate(wanted):
+        if name not in names:
+            raise fail(("runs", i), f"unknown run {name!r}; runs: {', '.join(known)}")
+        if name in seen:
+            raise fail(("runs", i), f"run {name!r} is named twice")
+        seen.add(name)
+    return list(wanted)
+
+
+def _too_many_pictures(runs: int, frames: int, limit: int) -> str:
+    """Why a comparison is refused: its runs x frames pictures are over ``limits.max_frames``; the ways out."""
+    return (f"{runs:,} runs x {frames:,} frames = {runs * frames:,} pictures, over limits.max_frames = {limit:,}; "
+            "show fewer runs (runs: [...]) or frames, or raise the limit (limits: {max_frames: N})")

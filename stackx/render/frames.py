@@ -48,6 +48,9 @@ class Frames(Renderer):
     def files(self) -> list[str]:
         return self.names() + ([self.params.player] if self.params.player else [])
 
+    def pictures(self) -> int:
+        return self.count
+
     def check(self, spec, fail) -> None:  # type: ignore[no-untyped-def]
         self.run = run_name(spec, self.params.run, fail)
         self.count = frame_count(self.params, spec.run(self.run).steps, fail, spec.limits.max_frames)

@@ -34,21 +34,28 @@ class Canvas:
             self.pixels[i:i + 3] = bytes(_rgb(rgb))
 
     def line(self, x0: int, y0: int, x1: int, y1: int, rgb: RGB) -> None:
-        """A one-pixel line including both end points (Bresenham), clipped to the canvas."""
+        """A one-pixel line including both end points (Bresenham), clipped to the canvas.
+
+        Only the part of the line over the canvas is walked, so a line to a point a billion pixels away costs
+        what its visible part does. The pixels are exactly those of the whole walk from ``(x0, y0)``: step n
+        of the walk is found in closed form (``_walk_state``), so the walk can start at the first step on the
+        canvas and stop after the last one."""
+        steps = _visible_steps(x0, y0, x1, y1, self.w, self.h)
+        if steps is None:
+            return
+        first, last = steps
+        x, y, err = _walk_state(x0, y0, x1, y1, first)
         dx, dy = abs(x1 - x0), -abs(y1 - y0)
         sx, sy = (1 if x0 < x1 else -1), (1 if y0 < y1 else -1)
-        err = dx + dy
-        while True:
-            self.set(x0, y0, rgb)
-            if x0 == x1 and y0 == y1:
-                return
+        for _ in range(last - first + 1):
+            self.set(x, y, rgb)
             e2 = 2 * err
             if e2 >= dy:
                 err += dy
-                x0 += sx
+                x += sx
             if e2 <= dx:
                 err += dx
-                y0 += sy
+                y += sy
 
     def fill_rect(self, x0: int, y0: int, x1: int, y1: int, rgb: RGB) -> None:
         """A filled rectangle with both corners included, clipped to the canvas."""
@@ -113,6 +120,49 @@ class Canvas:
         from stackx.output.outdir import atomic_write
 
         atomic_write(Path(path), self.png_bytes())
+
+
+def _walk_state(x0: int, y0: int, x1: int, y1: int, n: int) -> tuple[int, int, int]:
+    """Where the Bresenham walk from ``(x0, y0)`` to ``(x1, y1)`` is at its step ``n`` (0 is the first end
+    point): the pixel and the walk's error term, as ``Canvas.line``'s loop would have them after n turns.
+
+    The walk moves the longer axis (major, length ``big``) one pixel every step and the other (minor, length
+    ``small``) whenever its error term says so; after n steps the minor axis has moved
+    ``floor((2 n small + big) / (2 big))`` pixels (n x small / big rounded, halves away from the start), and the
+    error term, which each x move lowers by ``|dy|`` and each y move raises by ``dx``, is
+    ``(y moves + 1) dx - (x moves + 1) |dy|``. Exact in integers, however far the end points."""
+    dx, dy = abs(x1 - x0), abs(y1 - y0)
+    sx, sy = (1 if x0 < x1 else -1), (1 if y0 < y1 else -1)
+    big, small = max(dx, dy), min(dx, dy)
+    minor = (2 * n * small + big) // (2 * big) if big else 0
+    kx, ky = (n, minor) if dx >= dy else (minor, n)
+    return x0 + sx * kx, y0 + sy * ky, (ky + 1) * dx - (kx + 1) * dy
+
+
+def _visible_steps(x0: int, y0: int, x1: int, y1: int, w: int, h: int) -> tuple[int, int] | None:
+    """The first and last step of the walk from ``(x0, y0)`` to ``(x1, y1)`` whose pixel is on a ``w`` x ``h``
+    canvas (None when none is). Each axis's position only moves one way along the walk, so the steps on the
+    canvas are one range: the steps where the major axis is inside, narrowed to those where the minor is."""
+    dx, dy = abs(x1 - x0), abs(y1 - y0)
+    big, small = max(dx, dy), min(dx, dy)
+    (a0, sa, wa), (b0, sb, wb) = ((x0, x1, w), (y0, y1, h)) if dx >= dy else ((y0, y1, h), (x0, x1, w))
+    first, last = _inside(a0, 1 if a0 < sa else -1, wa)  # major axis: position a0 +- n
+    first, last = max(first, 0), min(last, big)
+    lo, hi = _inside(b0, 1 if b0 < sb else -1, wb)  # minor axis: moved m(n) = floor((2n small + big) / 2big)
+    if small == 0:
+        if lo > 0 or hi < 0:
+            return None
+    else:
+        first = max(first, -((-(2 * lo - 1) * big) // (2 * small)))  # least n with m(n) >= lo
+        last = min(last, -((-(2 * hi + 1) * big) // (2 * small)) - 1)  # greatest n with m(n) <= hi
+    return (first, last) if first <= last else None
+
+
+def _inside(start: int, step: int, size: int) -> tuple[int, int]:
+    """The range of moves k (possibly empty, possibly negative) with ``start + step * k`` in ``0..size-1``."""
+    if step > 0:
+        return -start, size - 1 - start
+    return start - (size - 1), start
 
 
 def _rgb(rgb: RGB) -> RGB:

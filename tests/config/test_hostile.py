@@ -18,6 +18,10 @@ STACK = (CONFIGS / "06-stack.yaml").read_text()
 LINE = re.compile(r"^error: (?P<file>.+?):(?P<line>\d+):(?P<col>\d+): (?P<key>[^\s:]+): (?P<msg>\S.*)$")
 DEEP = "/".join(["d"] * 2000) + "/m.json"
 LISTED = "boxes: [" + ", ".join(f"{{y: {i + 1}}}" for i in range(10_001)) + "]"
+TWENTY = ITERS.replace("[1, 4, 10]", "[" + ", ".join(map(str, range(1, 21))) + "]") + \
+    "  - render: compare\n    every: 1\n    count: 500\n"
+SWEPT = "sweep:\n  name: iters{solver.iterations}\n  grid:\n    solver.iterations: [1, 4, 10]"
+NAMED = "runs:\n" + "".join(f"  iters{k}: {{solver.iterations: {k % 20 + 1}}}\n" for k in range(10_001))
 
 # (id, base text, old line part, new line part, the text the error points at, key, words in the message)
 ROWS = [
@@ -63,6 +67,9 @@ ROWS = [
     ("grid-7x10", ITERS, "solver.iterations: [1, 4, 10]",
      "\n    ".join(f"solver.iterations{'' if k == 0 else f'_{k}'}: [{', '.join(map(str, range(1, 11)))}]"
                     for k in range(7)), "solver.iterations:", "sweep.grid", ["10,000,000 runs", "max_runs"]),
+    ("compare-runs-x-frames", TWENTY, "count: 500", "count: 599", "599", "outputs[2].count",
+     ["20 runs x 599 frames = 11,980 pictures", "max_frames"]),
+    ("10001-named-runs", ITERS, SWEPT, NAMED, "runs:", "runs", ["10,001 named runs", "max_runs"]),
     ("3000-terms", STACK, "y1: y[0]", "y1: " + "+".join(["1"] * 3000), "1+1+1", "outputs[0].values.y1",
      ["at most 1,000 characters"]),
     ("deep-expression", STACK, "y1: y[0]", "y1: " + "+".join(["1"] * 300), "1+1+1", "outputs[0].values.y1",
