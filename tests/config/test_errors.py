@@ -98,8 +98,10 @@ def test_set_override_error_points_into_the_option(cli: Cli, tmp_path: Path) -> 
 def test_bad_paths(cli: Cli, args: list[str], words: list[str]) -> None:
     done = cli(*args)
     assert done.returncode == 2
-    assert len(done.stderr.strip().splitlines()) == 1
-    assert all(w in done.stderr for w in words)
+    # pyproject.toml's folder holds plugins/, which is imported (and named) before the file is read
+    said = [line for line in done.stderr.strip().splitlines() if not line.startswith("plugins: imported ")]
+    assert len(said) == 1
+    assert all(w in said[0] for w in words)
 
 
 def test_value_index_counts_the_boxes_left_after_removals(cli: Cli, tmp_path: Path) -> None:

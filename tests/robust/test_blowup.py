@@ -126,7 +126,8 @@ def test_nan_is_traced_to_its_step_inside_a_long_call(cli: Cli, tmp_path: Path) 
     out = tmp_path / "out"
     done = cli("run", config, "--out", out, "-q")
     assert done.returncode == 1, done.stderr
-    [line] = done.stderr.strip().splitlines()
+    imported, line = done.stderr.strip().splitlines()
+    assert imported == f"plugins: imported nan_at.py from {plugins}"
     # step 437 lies inside the first call (steps 1..500): found by replaying that call step by step
     assert "run 'main' blew up at step 437 of 700: box 1 is not finite (y = nan" in line
     assert f"solver 'nan-at' ({plugins / 'nan_at.py'})" in line

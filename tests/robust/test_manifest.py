@@ -139,7 +139,8 @@ def test_verify_runs_only_the_named_configs_and_checks_the_other_files_on_disk(t
     out = tmp_path / "out"
     shutil.copytree(two_runs[0], out)
     code, _, err = _cli("verify", str(out))
-    assert code == 2 and f"name the configs to run again (e.g. 'stackx verify {out} configs/')" in err
+    assert code == 2 and len(err.splitlines()) == 1, err  # a long folder name is cut in its later mentions
+    assert err.startswith(f"error: {out}: name the configs to run again (e.g. 'stackx verify ") and "configs/'" in err
     code, text, _ = _cli("verify", str(out), str(CONFIGS / "06-stack.yaml"))
     assert code == 0, text
     assert "ok   06-stack: 16 artifact(s) identical" in text and text.count("ok   ") == 1
