@@ -1,4 +1,5 @@
-"""``python -m benchmarks.robust_folder``: is an output folder all-or-nothing under SIGKILL and concurrent runs?
+"""``python -m benchmarks.robust_folder``: is an output folder all-or-nothing under SIGKILL and concurrent runs,
+and does stackx keep its contract under every attack it has been seen to fail?
 
 Kill trials: a folder holding an earlier complete run (OLD: ``--set gravity=-9.0``, plus a file of the user's,
 ``notes.txt``) is run over with ``stackx run configs/ --out X`` (NEW) and the run is killed with SIGKILL,
@@ -10,8 +11,15 @@ complete JSON), and the next run must finish and give NEW.
 Concurrency trials: three runs of different configs into one folder at once; each must finish (a later one
 waits for the earlier) and the manifest must list every experiment, with every file on disk as listed.
 
-Prints the counts; exits 1 when any trial fails. The suite runs a few trials of each
-(``tests/robust/test_kill.py``, ``tests/robust/test_folder.py``).
+Attack trials (``benchmarks/attacks``): a file system mounted inside X, another program writing into X during
+runs, planted lock and staging links, X's mode and setgid group, ``--out`` a mount point or in an unwritable
+folder, 6 GB sparse files in a received folder, configs that explode (``compare`` over 10,000 runs, a line to
+1e18, 20,000 named runs), plugins planted in an ancestor folder, a keyvalue key that is code, long error lines,
+``serve`` under odd paths, idle connections and swapped links, SIGTERM and Ctrl-C, and ``bench`` and ``init``
+killed at their switch. Each prints one line: name, PASS, FAIL or SKIP, and what it measured.
+
+Prints the counts and a summary line; exits 1 when any trial fails. The suite runs a few trials of each
+(``tests/robust/test_kill.py``, ``tests/robust/test_folder.py``, ``tests/robust/test_trials.py``).
 """
 
 from __future__ import annotations
@@ -30,6 +38,8 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
+from benchmarks.attacks.kit import snapshot
+
 REPO = Path(__file__).resolve().parents[1]
 CONFIGS = REPO / "configs"
 OLD = ("--set", "gravity=-9.0")
@@ -46,18 +56,6 @@ def environ() -> dict[str, str]:
 
 def command(out: Path, *extra: str, configs: Path | str = CONFIGS) -> list[str]:
     return [sys.executable, "-m", "stackx", "run", str(configs), "--out", str(out), "-q", *extra]
-
-
-def snapshot(folder: Path) -> dict[str, bytes]:
-    """Every file under ``folder`` (relative name -> bytes); a link or anything else than a file or folder
-    is named with its kind, so it cannot pass for a file."""
-    files: dict[str, bytes] = {}
-    for top, dirs, names in os.walk(folder):
-        for name in names + [d for d in dirs if os.path.islink(os.path.join(top, d))]:
-            path = Path(top) / name
-            rel = path.relative_to(folder).as_posix()
-            files[rel] = path.read_bytes() if path.is_file() and not path.is_symlink() else b"<not a file>"
-    return files
 
 
 @dataclass
@@ -170,41 +168,103 @@ def together_trial(folder: Path) -> str:
     return "; ".join(problems)
 
 
+def kill_section(root: Path, kills: int, seed: int) -> list[str]:
+    """The kill trials: prints their counts, returns their failures."""
+    refs = references(root)
+    print(f"clean run over the old folder: {refs.seconds:.2f} s; {len(refs.points)} write-type system calls")
+    counts: dict[str, int] = {}
+    failures = []
+    for i, point in enumerate(kill_points(refs, kills, seed)):
+        folder = root / f"kill{i}"
+        where, seen, code = kill_trial(folder, refs, point)
+        if seen in ("old", "new"):
+            again = after_kill(folder, refs)
+            if again != "new":
+                seen = f"the next run: {again}"
+        counts[seen if seen in ("old", "new") else "FAILED"] = counts.get(seen, 0) + 1
+        if seen not in ("old", "new"):
+            failures.append(f"kill at {where} (exit {code}): {seen}")
+        shutil.rmtree(folder)
+    print(f"kill trials: {kills}; folder exactly old: {counts.get('old', 0)}, exactly new: "
+          f"{counts.get('new', 0)}, anything else: {counts.get('FAILED', 0)}")
+    return failures
+
+
+def together_section(root: Path, trials: int) -> list[str]:
+    """The three-runs-at-once trials: prints their count, returns their failures."""
+    failures = []
+    for i in range(trials):
+        problem = together_trial(root / f"together{i}")
+        if problem:
+            failures.append(f"three runs at once, trial {i}: {problem}")
+    print(f"three runs into one folder at once: {trials} trials, {trials - len(failures)} with every "
+          f"experiment listed and every file as listed, {len(failures)} not")
+    return failures
+
+
+def attack_section(names: list[str]) -> tuple[list[str], dict[str, int]]:
+    """The attack trials named (in their own order): one line each as it ends; returns the failures and the
+    tally of PASS, FAIL and SKIP."""
+    from benchmarks.attacks import TRIALS
+    from benchmarks.attacks.kit import attempt, line, trial_folder
+
+    tally = {"PASS": 0, "FAIL": 0, "SKIP": 0}
+    failures = []
+    with trial_folder(Path(tempfile.gettempdir()), "stackx-attacks") as base:
+        for trial in (t for t in TRIALS if t.name in names):
+            outcome = attempt(trial, base)
+            shown = line(trial.name, outcome)
+            print(shown, flush=True)
+            tally[shown.split()[1]] += 1
+            if outcome.passed is False:
+                failures.append(f"attack {trial.name}: {outcome.figure}")
+    return failures, tally
+
+
+def _attacks(value: str) -> list[str]:
+    """``--attacks``: all, none, or names separated by commas (each one of the trials)."""
+    from benchmarks.attacks import BY_NAME
+
+    if value in ("all", "none"):
+        return list(BY_NAME) if value == "all" else []
+    names = [n.strip() for n in value.split(",") if n.strip()]
+    unknown = [n for n in names if n not in BY_NAME]
+    if unknown:
+        raise argparse.ArgumentTypeError(f"unknown trial {unknown[0]!r}; trials: {', '.join(BY_NAME)}")
+    return names
+
+
+def _stop(signum: int, frame: object) -> None:
+    """SIGTERM (``timeout``, a CI job cancelled): unwind, so every trial takes down its mounts and folders."""
+    sys.exit(128 + signum)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(prog="python -m benchmarks.robust_folder", description=__doc__.split("\n\n")[0])
     parser.add_argument("--kills", type=int, default=50, help="kill trials (default 50)")
     parser.add_argument("--together", type=int, default=20, help="three-runs-at-once trials (default 20)")
+    parser.add_argument("--attacks", type=_attacks, default="all", metavar="all|none|NAME,...",
+                        help="attack trials to run (default all; see benchmarks/attacks/__init__.py)")
     parser.add_argument("--seed", type=int, default=31)
     args = parser.parse_args()
-    with tempfile.TemporaryDirectory(prefix="stackx-folder-") as tmp:
-        root = Path(tmp)
-        refs = references(root)
-        print(f"clean run over the old folder: {refs.seconds:.2f} s; {len(refs.points)} write-type system calls")
-        counts: dict[str, int] = {}
-        failures = []
-        for i, point in enumerate(kill_points(refs, args.kills, args.seed)):
-            folder = root / f"kill{i}"
-            where, seen, code = kill_trial(folder, refs, point)
-            if seen in ("old", "new"):
-                again = after_kill(folder, refs)
-                if again != "new":
-                    seen = f"the next run: {again}"
-            counts[seen if seen in ("old", "new") else "FAILED"] = counts.get(seen, 0) + 1
-            if seen not in ("old", "new"):
-                failures.append(f"kill at {where} (exit {code}): {seen}")
-            shutil.rmtree(folder)
-        print(f"kill trials: {args.kills}; folder exactly old: {counts.get('old', 0)}, exactly new: "
-              f"{counts.get('new', 0)}, anything else: {counts.get('FAILED', 0)}")
-        bad = 0
-        for i in range(args.together):
-            problem = together_trial(root / f"together{i}")
-            if problem:
-                bad += 1
-                failures.append(f"three runs at once, trial {i}: {problem}")
-        print(f"three runs into one folder at once: {args.together} trials, {args.together - bad} with every "
-              f"experiment listed and every file as listed, {bad} not")
+    signal.signal(signal.SIGTERM, _stop)
+    failures: list[str] = []
+    tally = {}
+    if args.kills or args.together:
+        with tempfile.TemporaryDirectory(prefix="stackx-folder-") as tmp:
+            root = Path(tmp)
+            failures += kill_section(root, args.kills, args.seed) if args.kills else []
+            failures += together_section(root, args.together) if args.together else []
+    if args.attacks:
+        attack_failures, tally = attack_section(args.attacks)
+        failures += attack_failures
     for line in failures:
         print("FAILED", line)
+    summary = f"{len(failures)} failure(s)"
+    if tally:
+        summary += f"; attack trials: {tally['PASS']} PASS, {tally['FAIL']} FAIL, {tally['SKIP']} SKIP"
+    print(f"summary: {args.kills} kill trials, {args.together} three-runs-at-once trials, {len(args.attacks)} "
+          f"attack trials; {summary}")
     sys.exit(1 if failures else 0)
 
 
