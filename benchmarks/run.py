@@ -419,8 +419,9 @@ def compile_cost(ctx: Context) -> dict[str, Any]:
         table.add_row(label, f"{cold:.2f}", f"{cached:.2f}", f"{cold - cached:.2f}")
         shutil.rmtree(cache, ignore_errors=True)
     console.print(table)
-    console.print(f"  default (auto) runs a batch plain below STACKX_JIT_WORK = {kernel.min_work():,} box-steps "
-                  "(rows x boxes x steps), so small runs never wait for a compile")
+    console.print(f"  default (auto) runs a batch plain below STACKX_JIT_WORK = {kernel.min_work():,} of work "
+                  "(steps x contact visits, in box-steps at each solver's default passes), so small runs never "
+                  "wait for a compile")
     return res
 
 

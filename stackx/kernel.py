@@ -14,10 +14,21 @@ with the same numbers:
   independent, so how they are split changes no number.
 
 Which one runs is set by ``STACKX_JIT``: ``0`` plain, ``1`` compiled, ``auto`` (the default) compiled except
-where the runner knows a batch is too small to pay for it. Importing numba and loading cached code costs
-about half a second, a first compile a few seconds, and the plain path roughly 20 µs per box and step, so
-under ``auto`` a batch of fewer than ``STACKX_JIT_WORK`` box-steps (rows x boxes x steps, times the model's ``step_cost``; default 40,000)
-runs plain and does not import numba at all: the whole lab then runs faster than numba can start.
+where the runner knows a batch is too small to pay for it. Importing numba and loading a column solver's cached
+code costs about a second (a planar solver's several), a first compile a few seconds more (a planar one
+minutes), and the plain path roughly 20 µs per box-step of a column solver at its default settings, so under
+``auto`` a batch doing less work than ``STACKX_JIT_WORK`` (default 40,000) runs plain and does not import numba
+at all: the whole lab then runs faster than numba can start.
+
+The work is what the batch's steps do, not its size: the sum over its rows of steps x ``Solver.step_work``
+(contact visits: passes + 1, times contacts), counted in box-steps at the solver's default passes
+(``Solver.default_passes``: one solver's pass is not another's, a box-step at defaults costs about the same)
+and times the model's ``step_cost`` (a planar body-step costs about a hundred column ones). A row making 40
+times the passes of its solver's defaults is 40 times the work: counting boxes x steps once left a plugin making
+400 passes a step on 20 boxes plain, 300 times slower than compiled. A solver that sets its passes only when it
+steps is seen by the runner stepping a copy once before deciding. A Dask chunk is decided on the work of its
+whole batch: a worker loads numba once and steps many chunks. A batch ``auto`` still left plain that stepped
+``REGRET_SECONDS`` or more says so in one line naming ``STACKX_JIT=1`` (``regrets_plain``).
 
 A small function that a pass calls for every contact point and that makes no array is marked ``@leaf``
 instead: compiled without reference counting, a call passing it arrays costs what its arithmetic does. A
@@ -58,7 +69,10 @@ P = ParamSpec("P")
 R = TypeVar("R")
 
 PLAIN, COMPILED, AUTO = "0", "1", "auto"
-DEFAULT_WORK = 40_000  # box-steps at which compiling beats the plain path when the cache is warm
+DEFAULT_WORK = 40_000  # work (box-steps at a solver's default passes) from which compiling beats the plain path
+# when the cache is warm: some 0.8 s of plain Python
+REGRET_SECONDS = 5.0  # plain stepping under auto past which compiled (a second or so to load, then about a
+# hundredth of the time) would have been faster by a wide margin: a batch this long says so (``regrets_plain``)
 THREADING_LAYER = "workqueue"  # unless NUMBA_THREADING_LAYER says otherwise: see the module doc
 GRAIN = 256  # batch elements (rows x boxes) per thread below which a prange loop runs on one thread
 
@@ -104,7 +118,7 @@ def mode() -> str:
 
 
 def min_work() -> int:
-    """Box-steps from which ``auto`` compiles (``STACKX_JIT_WORK``)."""
+    """The work (box-steps at a solver's default passes) from which ``auto`` compiles (``STACKX_JIT_WORK``)."""
     try:
         return max(0, int(_setting("STACKX_JIT_WORK", str(DEFAULT_WORK))))
     except ValueError:
@@ -126,11 +140,19 @@ def enabled() -> bool:
     return mode() != PLAIN and available()
 
 
-def worth_compiling(work: int) -> bool:
-    """Whether a batch of ``work`` box-steps should run compiled, by ``STACKX_JIT`` (see the module doc)."""
+def worth_compiling(work: float) -> bool:
+    """Whether a batch doing ``work`` (box-steps at its solver's default passes, see the module doc) should
+    run compiled, by ``STACKX_JIT``."""
     if mode() == AUTO and work < min_work():
         return False
     return enabled()
+
+
+def regrets_plain(seconds: float) -> bool:
+    """Whether a batch that ``auto`` stepped plain for ``seconds`` would by a wide margin have been faster
+    compiled: ``REGRET_SECONDS`` or more of plain stepping, numba at hand. A plain path the user chose
+    (``STACKX_JIT=0``) is not second-guessed."""
+    return seconds >= REGRET_SECONDS and mode() == AUTO and available()
 
 
 def compiled(on: bool) -> AbstractContextManager[None]:

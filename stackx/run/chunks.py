@@ -4,8 +4,9 @@ A chunk is consecutive rows of one of the runner's batches (runs with the same m
 events), so a worker steps it as the runner would step its batch, and every row comes out with the same
 numbers: rows of a batch never depend on one another (``tests/speed`` holds the runner to that). A worker runs
 ``run_chunk``, which calls ``run_experiment`` on a plan holding only the chunk's runs, and sends back what the
-experiment's readers need: each row's measures and the batch's states before the steps its outputs draw and
-at the end (the states kept only to measure, such as the motion window, stay on the worker).
+experiment's readers need: each row's measures, its share of the chunk's stepping time and whether it stepped
+compiled, and the batch's states before the steps its outputs draw and at the end (the states kept only to
+measure, such as the motion window, stay on the worker).
 
 The client merges the chunks' results in the plan's order (``merge``), so outputs, manifest and every
 artifact are those of a local run. A chunk that fails sends its error instead; ``failure`` turns the
@@ -25,8 +26,8 @@ from dataclasses import dataclass
 from typing import Any
 
 from stackx.errors import BlowUp, RunError, StackxError, listing
-from stackx.run.results import ExperimentResult, RunFrames, RunResult
-from stackx.run.runner import batches, run_experiment
+from stackx.run.results import OWN, SHARE, ExperimentResult, RunFrames, RunResult
+from stackx.run.runner import batches, plain_note, planned_work, run_experiment
 from stackx.config.sizing import run_bytes
 from stackx.config.spec import Plan, RunSpec
 from stackx.run.watch import add_finished, stopped
@@ -38,12 +39,15 @@ CHUNK_BYTES = 256 * 2**20  # the most a chunk's recorded states take on a worker
 @dataclass
 class Chunk:
     """Rows ``first``.. of batch ``batch`` of an experiment, as a plan of their own; ``frames`` the steps
-    whose states the experiment's outputs draw."""
+    whose states the experiment's outputs draw; ``share`` the part of its batch's work the chunk holds, so
+    that a worker decides whether to compile on the whole batch, as a local run does (a sweep cut into
+    chunks of two rows would otherwise step every chunk plain, at many times the CPU)."""
 
     plan: Plan
     batch: int
     first: int
     frames: frozenset[int]
+    share: float = 1.0
 
     @property
     def names(self) -> list[str]:
@@ -57,11 +61,14 @@ class Chunk:
 
 @dataclass
 class Stepped:
-    """A chunk that ran: each row's measures, the batch's states kept for the outputs, the stepping time."""
+    """A chunk that ran: each row's measures, the batch's states kept for the outputs, each row's stepping time
+    and contact visits (``stackx.run.results.RunResult``), and whether it stepped compiled."""
 
     measures: list[dict[str, Any]]
     frames: dict[int, Any]
-    wall_seconds: float
+    wall_seconds: list[float]
+    work: list[float]
+    compiled: bool
 
 
 @dataclass
@@ -90,16 +97,22 @@ def split(plan: Plan, rows: int | None = None, threads: int = 1) -> list[Chunk]:
     frames = frozenset(plan.frame_steps())
     groups = batches(plan.runs)
     size = rows or chunk_rows(groups, set(frames), threads)
-    return [Chunk(Plan(plan.file, plan.name, plan.description, group[first:first + size], plan.limits), b, first,
-                  frames)
-            for b, group in enumerate(groups) for first in range(0, len(group), size)]
+    parts = []
+    for b, group in enumerate(groups):
+        whole = planned_work(group)
+        for first in range(0, len(group), size):
+            rows = group[first:first + size]
+            share = planned_work(rows) / whole if whole > 0 else 1.0
+            parts.append(Chunk(Plan(plan.file, plan.name, plan.description, rows, plan.limits), b, first, frames,
+                               share))
+    return parts
 
 
 def run_chunk(chunk: Chunk) -> Stepped | Failed:
     """Step a chunk (on a worker) and keep what the client needs; a failure is sent back, not raised, so that
     Dask retries only what may go better elsewhere (a worker dying, a machine out of memory)."""
     try:
-        result = run_experiment(chunk.plan, record=set(chunk.frames))
+        result = run_experiment(chunk.plan, record=set(chunk.frames), share=chunk.share)
     except BlowUp as exc:
         return Failed(str(exc), exc.report, exc.report.get("step"))  # type: ignore[arg-type]
     except StackxError as exc:
@@ -107,22 +120,31 @@ def run_chunk(chunk: Chunk) -> Stepped | Failed:
     first = result.runs[0]
     steps = first.spec.steps
     kept = {k: s for k, s in first.frames.batch.items() if k in chunk.frames or k == steps}  # type: ignore[attr-defined]
-    return Stepped([r.measures for r in result.runs], kept, sum(r.wall_seconds for r in result.runs))
+    return Stepped([r.measures for r in result.runs], kept, [r.wall_seconds for r in result.runs],
+                   [r.work for r in result.runs], first.compiled)
 
 
 def merge(plan: Plan, chunks: Sequence[Chunk], outcomes: Sequence[Stepped]) -> ExperimentResult:
-    """The experiment's result from its chunks' (all stepped), its runs in the plan's order."""
+    """The experiment's result from its chunks' (all stepped), its runs in the plan's order, with a note for
+    each batch that stepped plain far longer than compiling would have taken (over all its chunks)."""
     by_name: dict[str, RunResult] = {}
+    by_batch: dict[int, list[RunResult]] = {}
     for chunk, got in zip(chunks, outcomes):
-        by_name.update(_results(chunk, got))
-    return ExperimentResult(plan, [by_name[r.name] for r in plan.runs])
+        rows = _results(chunk, got)
+        by_name.update(rows)
+        by_batch.setdefault(chunk.batch, []).extend(rows.values())
+    notes = [note for b in sorted(by_batch) if (note := plain_note(plan.file, by_batch[b]))]
+    return ExperimentResult(plan, [by_name[r.name] for r in plan.runs], notes)
 
 
 def _results(chunk: Chunk, got: Stepped) -> dict[str, RunResult]:
+    """Each row of a stepped chunk as a run's result: its own share of the chunk's time (its own time when it
+    is the chunk's only row)."""
     runs = chunk.plan.runs
-    wall = got.wall_seconds / len(runs)
     final = got.frames[runs[0].steps]
-    return {run.name: RunResult(run, final.row(b), RunFrames(got.frames, b), got.measures[b], wall)
+    timed = OWN if len(runs) == 1 else SHARE
+    return {run.name: RunResult(run, final.row(b), RunFrames(got.frames, b), got.measures[b], got.wall_seconds[b],
+                                got.compiled, timed, got.work[b])
             for b, run in enumerate(runs)}
 
 

@@ -8,9 +8,11 @@ machine: one worker process per core, one thread each. The same command runs on 
 A task carries its arguments pickled by stackx, beside the local plugin files this process imported
 (``stackx.registry.local_modules``, their source included) and the ``STACKX_JIT`` settings: the worker
 imports those files under the names they have here before unpickling, so runs of a local solver arrive as
-they left. The scheduler and the workers need stackx itself installed, the same version (Dask unpickles a
-task's function on both). A worker steps each task on one core (``stackx.kernel.threads``): Dask gives a
-machine one task per core, so threads per task would only compete.
+they left. A chunk also carries the part of its batch's work it holds (``Chunk.share``), so that the worker
+compiles it when the whole batch would compile here, not by the chunk's own size. The scheduler and the
+workers need stackx itself installed, the same version (Dask unpickles a task's function on both). A worker
+steps each task on one core (``stackx.kernel.threads``): Dask gives a machine one task per core, so threads
+per task would only compete.
 
 Failures. A run that blows up or a plugin that raises is a result, not an exception: it is sent back and
 reported as a local run reports it (``stackx.run.chunks.failure``). Anything else a task raises (out of memory, a
@@ -37,7 +39,7 @@ from stackx import kernel, registry
 from stackx.run import chunks
 from stackx.errors import ConfigError, RunError, first_line
 from stackx.run.results import ExperimentResult
-from stackx.run.runner import Progress
+from stackx.run.runner import Progress, tell
 from stackx.config.spec import Plan
 
 R = TypeVar("R")
@@ -249,7 +251,9 @@ class _Experiment:
             self.futures = []  # the workers may drop what they hold for this plan
         if stop is not None:
             raise chunks.failure(self.plan, parts, outcomes, self.cluster.rerun)
-        return chunks.merge(self.plan, parts, [outcomes[i] for i in range(len(parts))])  # type: ignore[misc]
+        result = chunks.merge(self.plan, parts, [outcomes[i] for i in range(len(parts))])  # type: ignore[misc]
+        tell(result.notes)  # a batch the workers stepped plain for long, with the switch
+        return result
 
 
 class _Call(Generic[R]):

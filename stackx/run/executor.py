@@ -20,7 +20,7 @@ from typing import Any, Generic, Protocol, TypeVar
 
 from stackx.errors import ConfigError
 from stackx.run.results import ExperimentResult
-from stackx.run.runner import Progress, run_experiment
+from stackx.run.runner import Progress, run_experiment, tell
 from stackx.config.spec import Plan
 
 R = TypeVar("R")
@@ -96,11 +96,23 @@ class Local:
     """Everything steps in this process, when its result is asked for, exactly as without an executor."""
 
     def experiments(self, plans: Sequence[Plan]) -> list[Job[ExperimentResult]]:
-        return [_Later(run_experiment, (plan,)) for plan in plans]
+        return [_LocalExperiment(plan) for plan in plans]
 
     def calls(self, fn: Callable[..., R], args: Sequence[tuple[Any, ...]],
               weights: Sequence[int]) -> list[Job[R]]:
         return [_Later(fn, a) for a in args]
+
+
+class _LocalExperiment:
+    """A plan stepped in this process when its result is asked for; its notes told then."""
+
+    def __init__(self, plan: Plan) -> None:
+        self.plan = plan
+
+    def result(self, progress: Progress | None = None) -> ExperimentResult:
+        result = run_experiment(self.plan, progress)
+        tell(result.notes)
+        return result
 
 
 class _Later(Generic[R]):

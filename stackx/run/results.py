@@ -26,14 +26,20 @@ class RunFrames(Mapping[int, Any]):
         return len(self.batch)
 
 
+OWN, SHARE = "own", "share"  # how a run's time was obtained: stepped alone, or its part of its batch's time
+
+
 @dataclass
 class RunResult:
     """One run's final state, the states recorded on the way (states of the run's model, each a batch of
     one), and its measures.
 
     ``frames[k]`` is the state before step ``k`` (``frames[0]`` the initial state, ``frames[steps]`` the
-    final one). ``wall_seconds`` is the stepping time charged to this run (its batch's time divided evenly,
-    a compile not counted); ``compiled`` says whether it ran compiled by numba or as plain Python.
+    final one). ``wall_seconds`` is the stepping time charged to this run, a compile not counted: its own when
+    it stepped alone (``timed`` is ``"own"``), else its batch's time shared out by the work each row did
+    (``timed`` is ``"share"``; ``work``, the contact visits counted for it, ``Solver.step_work`` over its
+    steps), so that a row making four times the passes is charged four times the time. ``compiled`` says
+    whether it ran compiled by numba or as plain Python.
     """
 
     spec: RunSpec
@@ -42,6 +48,8 @@ class RunResult:
     measures: dict[str, float | list[float]]
     wall_seconds: float = 0.0
     compiled: bool = False
+    timed: str = OWN
+    work: float = 0.0
 
     @property
     def name(self) -> str:
@@ -52,13 +60,20 @@ class RunResult:
         """Wall-clock microseconds per step charged to this run."""
         return 1e6 * self.wall_seconds / self.spec.steps
 
+    def timing_record(self) -> dict[str, Any]:
+        """What ``timing.json`` says of this run: µs/step, seconds, how it stepped and how it was timed."""
+        return {"us_per_step": self.us_per_step, "wall_seconds": self.wall_seconds, "compiled": self.compiled,
+                "timed": self.timed, "contact_visits": self.work}
+
 
 @dataclass
 class ExperimentResult:
-    """The runs of one plan, finished, in the plan's order."""
+    """The runs of one plan, finished, in the plan's order; ``notes``: lines for the user about how they
+    stepped (a batch left plain that compiled would have stepped far faster)."""
 
     spec: Plan
     runs: list[RunResult] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)
 
     def run(self, name: str) -> RunResult:
         return next(r for r in self.runs if r.name == name)

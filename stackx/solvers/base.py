@@ -100,6 +100,59 @@ class Solver:
                 count *= value
         return count
 
+    @classmethod
+    def default_passes(cls) -> int:
+        """``passes`` at the solver's default params (1 when its params have no defaults): the yardstick its
+        rows' passes are weighed against when the runner decides whether compiling pays. One solver's pass is
+        not another's (``exact``'s is a whole direct solve, ``pgs``'s one sweep), but a box-step at each
+        solver's defaults costs about the same in plain Python (20 to 30 µs on the column)."""
+        try:
+            return max(1, int(cls.passes(cls.Params())))
+        except Exception:
+            return 1
+
+    def step_work(self, state: Any, bodies: int) -> np.ndarray:
+        """Contact visits one step makes, per batch row (float64, ``(batch,)``): ``passes + 1`` times
+        ``bodies`` (a column has one contact per box; a pile about one a body), the one being the step's
+        integration, correction and monitors. The runner reads it after every stretch of steps: to share a
+        batch's time among its rows, and to decide whether compiling the batch pays
+        (``stackx.kernel.worth_compiling``, weighed against the solver's defaults: ``default_passes``). The
+        passes are ``passes`` of each row's params with the ``iterations`` and ``substeps`` this solver holds,
+        which a solver may change as it steps (the README's ``pgs-tall`` raises its iterations in
+        ``advance``). Override to count what a step really did (a solver that stops at a tolerance) from
+        ``state`` or from the solver's own memory."""
+        return (self.held_passes(state.batch) + 1.0) * float(bodies)
+
+    def held_passes(self, rows: int) -> np.ndarray:
+        """``passes`` of each row's params, scaled where the solver now holds other ``iterations`` or
+        ``substeps`` (integer arrays of one value per row) than its params gave: numpy over the rows, as the
+        runner asks after every stretch of steps and a sweep has thousands of rows."""
+        given, counts = self._given_passes(rows)
+        passes = given
+        for name, count in counts.items():
+            held = getattr(self, name, None)
+            if (isinstance(held, np.ndarray) and held.shape == count.shape and held.dtype.kind in "iu"
+                    and not np.array_equal(held, count)):
+                passes = passes * np.where(count > 0, held / np.maximum(count, 1), 1.0)
+        return passes
+
+    def _given_passes(self, rows: int) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+        """Each row's ``passes`` and its ``iterations`` and ``substeps`` as its params give them (made once);
+        one pass a row for a solver that keeps no params per row."""
+        made = self.__dict__.get("_passes_given")
+        if made is None or len(made[0]) != rows:
+            params = getattr(self, "params", None)
+            if not isinstance(params, list) or len(params) != rows:
+                return np.ones(rows), {}
+            counts = {}
+            for name in ("iterations", "substeps"):
+                values = [getattr(p, name, None) for p in params]
+                if values and all(isinstance(v, int) for v in values):
+                    counts[name] = np.array(values, dtype=np.int64)
+            made = (np.array([self.passes(p) for p in params], dtype=np.float64), counts)
+            self.__dict__["_passes_given"] = made
+        return made  # type: ignore[no-any-return]
+
     def remove_box(self, state: Any, box: int) -> None:
         """Forget box ``box``, which a scene event is about to take out of ``state`` (still holding it).
 

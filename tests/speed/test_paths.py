@@ -29,6 +29,7 @@ from stackx.models.column.state import ColumnState
 from tests.conftest import CONFIGS, REPO
 from tests.solvers.columns import solver_names
 from tests.speed.artifacts import differences
+from tests.limits import hang_limit
 
 HARD = sorted((CONFIGS / "hard").glob("*.yaml"))
 SMALL_STEPS = 240  # steps of a shrunk hard case (more when a scene event comes later)
@@ -48,7 +49,7 @@ def lab_by_path(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
     for jit in ("1", "0"):
         out = tmp_path_factory.mktemp(f"lab-jit{jit}")
         subprocess.run([sys.executable, "-m", "stackx", "run", str(CONFIGS), "--out", str(out), "-q"], cwd=REPO,
-                       check=True, env={**os.environ, "STACKX_JIT": jit}, timeout=300)
+                       check=True, env={**os.environ, "STACKX_JIT": jit}, timeout=hang_limit(300))
         outs[jit] = out
     return outs
 

@@ -1,7 +1,8 @@
 """Measures taken inside the stepping loop, after every step.
 
 Written as plain loops over one batch row so that the same function runs in the readable Python path and
-inside a compiled stepping loop. Solvers call ``observe`` after every step. Everything it measures comes
+inside a compiled stepping loop. Solvers call ``observe`` for every batch row after every step (the runner
+refuses one that does not: ``stackx.run.monitored``). Everything it measures comes
 from positions, the same way for every solver: a velocity a solver stores is its own business, and a
 position correction that throws a box up without touching its velocity must show as the launch it is.
 """
