@@ -28,8 +28,9 @@ app = typer.Typer(no_args_is_help=True, pretty_exceptions_enable=False,
 
 Paths = Annotated[list[str], typer.Argument(help="YAML config files, or folders whose *.yaml files run in name order")]
 Sets = Annotated[Optional[list[str]], typer.Option("--set", help="override a config value: key.path=value (YAML)")]
-Plugins = Annotated[Optional[Path], typer.Option("--plugins", help="folder of local plugin *.py files "
-                                                 "(default: the nearest plugins/ at or above each config)")]
+Plugins = Annotated[Optional[Path], typer.Option("--plugins", help="folder of local plugin *.py files to import "
+                                                 "(default: the plugins/ folder in each config's own folder, "
+                                                 "never one above; for 'plugins' and 'schema': ./plugins)")]
 Debug = Annotated[bool, typer.Option("--debug", help="show tracebacks")]
 Executor = Annotated[str, typer.Option("--executor", metavar="local|dask",
                                        help="where runs step: this process (local), or the workers of a Dask "
@@ -56,16 +57,40 @@ def _root(version: Annotated[bool, typer.Option("--version", callback=_version, 
 
 @contextmanager
 def _guard(debug: bool) -> Iterator[None]:
-    """Report ``StackxError`` as a short message with its exit code."""
-    from stackx.errors import StackxError
+    """Report ``StackxError`` as one readable line (long values cut: ``errors.readable``) with its exit code."""
+    from stackx.errors import StackxError, readable
 
     try:
         yield
     except StackxError as exc:
         if debug:
             raise
-        typer.echo(f"error: {' '.join(str(exc).split())}", err=True)  # one line, whatever a plugin said
+        typer.echo(readable(f"error: {exc}"), err=True)  # one line, whatever a plugin said
         raise typer.Exit(exc.exit_code) from None
+
+
+def _import_plugins(paths: list[str], plugins: Path | None) -> None:
+    """Import the local plugin files the configs use (``--plugins DIR``, else each config's own ``plugins/``)
+    and name them in one line on stderr, also when a folder is refused half-way."""
+    from stackx.config.experiment import config_files, local_plugins, own_plugins
+
+    with _naming_imports():
+        for file in config_files(paths):
+            local_plugins(plugins, own_plugins(file) if plugins is None else None)
+
+
+@contextmanager
+def _naming_imports() -> Iterator[None]:
+    """On the way out, one line on stderr naming every local plugin file this command imported (none: no line)."""
+    from stackx.registry import imported_count, imported_line
+
+    before = imported_count()
+    try:
+        yield
+    finally:
+        line = imported_line(before)
+        if line is not None:
+            typer.echo(line, err=True)
 
 
 def _load_all(paths: list[str], sets: list[str] | None, plugins: Path | None) -> list[ExperimentSpec]:
@@ -73,6 +98,7 @@ def _load_all(paths: list[str], sets: list[str] | None, plugins: Path | None) ->
     from stackx.config.experiment import config_files, load
     from stackx.errors import ConfigError
 
+    _import_plugins(paths, plugins)
     notes: list[str] = []
     specs = [load(f, sets, plugins, notes) for f in config_files(paths)]
     for note in dict.fromkeys(notes):  # once each, though every config repeats it
@@ -114,7 +140,10 @@ def run(paths: Paths, out: Annotated[Path, typer.Option("--out", "-o", help="out
         sets: Sets = None, plugins: Plugins = None, debug: Debug = False,
         quiet: Annotated[bool, typer.Option("--quiet", "-q", help="no progress bar or table")] = False,
         wide: Annotated[bool, typer.Option("--wide", help="a wider table: launch, reach, full precision")] = False,
-        executor: Executor = "local", scheduler: Scheduler = None, chunk: Chunk = None) -> None:
+        executor: Executor = "local", scheduler: Scheduler = None, chunk: Chunk = None,
+        check: Annotated[bool, typer.Option("--check", help="exit 1 when a run's verdict is FAIL (default: the "
+                                                            "table says FAIL and the command exits 0); the "
+                                                            "artifacts are written either way")] = False) -> None:
     """Run experiments and write their artifacts into the output folder."""
     with _guard(debug):
         from stackx.run.executor import Choice
@@ -122,7 +151,13 @@ def run(paths: Paths, out: Annotated[Path, typer.Option("--out", "-o", help="out
 
         choice = Choice(executor, scheduler, chunk)
         choice.check()
-        run_all(_load_all(paths, sets, plugins), out, quiet=quiet, wide=wide, choice=choice)
+        results = run_all(_load_all(paths, sets, plugins), out, quiet=quiet, wide=wide, choice=choice)
+        if check:
+            from stackx.run.check import check as check_verdicts
+
+            note = check_verdicts(results)
+            if note:
+                typer.echo(f"note: {note}", err=True)
 
 
 @app.command(epilog="Example: stackx bench configs/hard/tall-20.yaml --solvers pgs,exact")
@@ -145,6 +180,7 @@ def bench(paths: Paths,
 
         choice = Choice(executor, scheduler)
         choice.check()
+        _import_plugins(paths, plugins)
         names = None
         if solvers is not None:
             names = [n.strip() for n in solvers.split(",") if n.strip()]
@@ -156,7 +192,10 @@ def bench(paths: Paths,
 
 @app.command(epilog="Example: stackx validate configs/ configs/hard/")
 def validate(paths: Paths, sets: Sets = None, plugins: Plugins = None, debug: Debug = False) -> None:
-    """Check configs (and the plugins they name) without running anything."""
+    """Check configs (and the plugins they name) without running a simulation or writing a file.
+
+    It imports the local plugin files the configs use, as 'stackx run' would, and names them: their code runs.
+    """
     with _guard(debug):
         for spec in _load_all(paths, sets, plugins):
             typer.echo(f"ok  {spec.file}: {len(spec.runs)} run(s), {len(spec.outputs)} output(s)")
@@ -172,16 +211,17 @@ def plugins(plugins: Plugins = None, debug: Debug = False) -> None:
         from stackx import registry
         from stackx.config.experiment import local_plugins
         from stackx.output.screen import screen
+        from stackx.output.summary_text import first_sentence
 
-        local_plugins(plugins, Path("plugins"))
+        with _naming_imports():
+            local_plugins(plugins, Path("plugins"))
         _warn_failed_plugins()
         table = Table(title="stackx plugins")
         for col in ("kind", "name", "source", "about"):
             table.add_column(col)
         for kind, reg in registry.ALL.items():
             for entry in reg.entries():
-                lines = (entry.plugin.__doc__ or "").strip().splitlines() if entry.plugin else ["(not loaded)"]
-                doc = lines[0] if lines else ""
+                doc = first_sentence(entry.plugin.__doc__) if entry.plugin else "(not loaded)"
                 why = registry.unavailable(entry.plugin)
                 if why:
                     doc = f"unavailable: {why}"
@@ -199,7 +239,8 @@ def schema(plugins: Plugins = None, debug: Debug = False,
         from stackx.config.experiment import local_plugins
         from stackx.config.schema import config_schema
 
-        local_plugins(plugins, Path("plugins"))
+        with _naming_imports():
+            local_plugins(plugins, Path("plugins"))
         text = json.dumps(config_schema(), indent=2, sort_keys=True) + "\n"
         if out is None:
             sys.stdout.write(text)
@@ -225,7 +266,7 @@ def verify(folder: Annotated[Path, typer.Argument(help="output folder holding a 
     with _guard(debug):
         from stackx.output.verify import verify as verify_folder
 
-        if verify_folder(folder, typer.echo, configs, plugins, trust):
+        if verify_folder(folder, typer.echo, configs, plugins, trust, notice=lambda line: typer.echo(line, err=True)):
             raise typer.Exit(1)
 
 
@@ -234,7 +275,7 @@ def serve(folder: Annotated[Path, typer.Argument(help="folder to serve")] = Path
           port: Annotated[int, typer.Option(help="TCP port")] = 8080,
           host: Annotated[str, typer.Option(help="address to listen on")] = "127.0.0.1",
           debug: Debug = False) -> None:
-    """Serve an output folder over HTTP to watch index.html play the frames."""
+    """Serve an output folder over HTTP to watch its players; prints the URL of each HTML page in it."""
     with _guard(debug):
         from stackx.errors import ConfigError
         from stackx.output.serve import serve_folder

@@ -11,10 +11,11 @@ definition, not by merit (the report shows its time beside the winners instead).
 Times are compared with a tolerance: two figures within ``TIE`` of each other are the same cost, since a
 timing on a shared machine moves by that much between benches (``stackx.bench.timing``). A run leaves the
 front only for one that is at least as accurate and clearly faster, or more accurate and not clearly slower;
-an equal-cost winner names the runs tied with it. The front keeps a run unless another beats it even with both
-times moved against it by their noise (their spread, at least ``NOISE``), and marks it ``borderline`` when
-the noise could go either way, so two benches agree on the front unless a figure moved beyond its noise; any
-front or winner that rests on a figure flagged unstable says so.
+an equal-cost winner names the runs tied with it (within ``TIE`` as measured: the margin printed beside it).
+The front keeps a run unless another beats it even with both times moved against it by their noise (their
+spread, at least ``NOISE``), and marks it ``borderline`` when the noise could go either way, so two benches
+agree on the front unless a figure moved beyond its noise; any front or winner that rests on a figure flagged
+unstable says so.
 """
 
 from __future__ import annotations
@@ -189,9 +190,11 @@ def equal_cost(records: list[Record], targets: Iterable[float] = TARGETS) -> lis
 
 
 def tie(best: Record, other: Record) -> bool:
-    """Whether ``other``'s time is within ``TIE`` of the faster ``best``'s once both are moved toward each other
-    by their noise: the two cannot be told apart by this bench."""
-    return not clearly_faster(best.us_per_step * (1 + noise(best)), other.us_per_step * (1 - noise(other)))  # type: ignore[operator]
+    """Whether ``other``'s time is within ``TIE`` of the faster ``best``'s, as measured: the margin every output
+    states ("tied (within 20%)") is the one tested. A pair further apart is not called tied however noisy its
+    figures: a figure too noisy to trust is flagged unstable (``unstable``) and says so where it is used, which
+    is how the noise is told, rather than by widening the margin past what is printed."""
+    return not clearly_faster(best.us_per_step, other.us_per_step)  # type: ignore[arg-type]
 
 
 def tied_with(best: Record, shown: list[Record]) -> list[Record]:

@@ -1,12 +1,13 @@
 """``report.html``: one page that stands alone (its pictures are ``data:`` URIs; no network, no file beside it).
 
-It opens on the summary (``stackx.bench.summary``): for each case the cheapest solver that passes and why each
-other one fails. Each case follows as a collapsible section (closed; a link to ``#CASE`` opens it): its
-settings, its runs against time, for a planar case its start and final states drawn
-(``stackx.bench.snapshots``), speed against error with the equal-cost winners and the Pareto front, and a
-table of every run. Then what spans the cases (the stability matrix, steps to recover and to settle, the lab's
-claims) and the definitions. Every sentence about an outcome is generated from the records; the fixed text
-only defines the measures. Column headers carry their units.
+It opens on speed against error, open: each case's plot of every run's time per step against its error, the
+answer the bench exists to give, captioned with the case's verdict. Then the summary (``stackx.bench.summary``):
+for each case the cheapest solver that passes, its time and error, and why each other one fails. Each case
+follows as a collapsible section (closed; a link to ``#CASE`` opens it): its settings, its runs against time,
+for a planar case its start and final states drawn (``stackx.bench.snapshots``), the equal-cost winners and
+the Pareto front beside a link to its plot, and a table of every run. Then what spans the cases (the stability
+matrix, steps to recover and to settle, the lab's claims) and the definitions. Every sentence about an outcome is
+generated from the records; the fixed text only defines the measures. Column headers carry their units.
 """
 
 from __future__ import annotations
@@ -15,11 +16,13 @@ import json
 
 from stackx.bench.compare import TIE, Cell, borderline, case_records, failing, label, matrix, outcomes, tied_with, unstable
 from stackx.bench.markup import esc, number, swatch, table, td
-from stackx.bench.result import DEFINITIONS, CaseResult, call_time, per_call_note, shown, step_time, unstable_note
+from stackx.bench.result import DEFINITIONS, CaseResult, call_time, per_call_note, shown, unstable_note
 from stackx.bench.snapshots import Snapshot
 from stackx.bench.summary import summary_html
 from stackx.bench.sweep import Record
 from stackx.bench.criteria import NAMES
+from stackx.bench.figures import error_text, plain_note, steppings, timed
+from stackx.bench.stepping import COMPILED
 
 CSS = """
 body { font: 14px/1.45 system-ui, sans-serif; margin: 1.5em auto; max-width: 1250px; color: #222; padding: 0 1em; }
@@ -36,6 +39,8 @@ details { margin: .4em 0; } details > summary { cursor: pointer; }
 details > summary > h2, details > summary > h3 { display: inline; font-size: 1.15em; }
 details.case { border-top: 1px solid #ddd; padding-top: .3em; } details.case[open] { padding-bottom: .8em; }
 span.verdict { color: #555; margin-left: .6em; }
+div.speeds { display: flex; flex-wrap: wrap; gap: .6em 1.2em; } figure.speed { margin: 0; max-width: 760px; }
+figure.speed figcaption { font-size: 12.5px; color: #333; }
 div.states { display: flex; flex-wrap: wrap; gap: .6em; } figure.state { margin: 0; text-align: center; }
 figure.state img { max-height: 360px; max-width: 360px; image-rendering: pixelated; } figure.state figcaption { font-size: 12px; }
 figcaption.pass { color: #1d6b1d; } figcaption.fail { color: #9b2a1a; }
@@ -99,10 +104,12 @@ HEAD = ["solver", "knob", "µs per step (+spread)", "µs per call (+spread)", "e
 
 def _records_html(res: CaseResult) -> str:
     rows = []
+    how = steppings(res)
     for r in case_records(res.records):
         f = shown(r)
         line = [f'<td class="l">{swatch(r.solver)}</td>', td(f"{r.knob} {r.value}" if r.knob else "-", "l"),
-                td(step_time(r), "warn" if unstable(r) else "", r.timing.get("unstable") or None),
+                td(timed(r, how.get(r.solver, COMPILED)), "warn" if unstable(r) else "",
+                   r.timing.get("unstable") or None),
                 td(call_time(r), "warn" if unstable(r) else "", r.timing.get("unstable") or None),
                 td(f["error"] if not r.reference else "reference"), td(f["error_max"]), td(f["worst_step"]),
                 td(f["violation"]), td(f["approach"])]
@@ -117,6 +124,8 @@ def _records_html(res: CaseResult) -> str:
         rows.append(line)
     note = per_call_note(res)
     text = table(HEAD, rows) + (f"<p class=note>{esc(note)} (see one_step_per_call).</p>" if note else "")
+    plain = plain_note(how)
+    text += f"<p class=note>{esc(plain)}.</p>" if plain else ""
     shaky = unstable_note(res)
     return text + (f"<p class=note>{esc(shaky)} (see unstable; hover a figure for why).</p>" if shaky else "")
 
@@ -162,7 +171,9 @@ def _verdict(res: CaseResult) -> str:
     best = passing[0]
     ties = tied_with(best, shown_runs)
     tie = f" (tied within {100 * TIE:.0f}% with {', '.join(r.solver for r in ties)})" if ties else ""
-    return (f"cheapest that passes: {label(best.solver, best.knob, best.value)}, {step_time(best)} µs per "
+    ref = " (the reference)" if best.reference else f", error {error_text(best)} m/s"
+    how = steppings(res).get(best.solver, COMPILED)
+    return (f"cheapest that passes: {label(best.solver, best.knob, best.value)}{ref}, {timed(best, how)} µs per "
             f"step{tie}; {len(passing)} of {len(shown_runs)} solvers pass")
 
 
@@ -240,7 +251,8 @@ def _case_html(res: CaseResult, pictures: dict[str, str], states: list[Snapshot]
                      "a box beyond them (toppled, slid off) is a triangle at the edge.</p>")
     parts.append("<h3>Speed against error</h3>")
     if "speed" in pictures:
-        parts.append(f'<p><img src="{pictures["speed"]}" alt="speed against error, {esc(res.name)}"></p>')
+        parts.append(f'<p class=note>Plotted at the top of the page: <a href="#{esc(_speed_id(res.name))}">speed '
+                     f"against error, {esc(res.name)}</a>.</p>")
     else:
         parts.append("<p class=note>No plot: no run has both a time and an error against the exact solver.</p>")
     parts.append("<h3>Equal cost</h3>" + _equal_cost_html(res))
@@ -260,6 +272,28 @@ def _case_html(res: CaseResult, pictures: dict[str, str], states: list[Snapshot]
     return "\n".join(parts)
 
 
+def _speed_id(case: str) -> str:
+    """The id of a case's speed-against-error figure at the top of the page (``#CASE`` is its section)."""
+    return f"speed:{case}"
+
+
+def _speed_html(results: list[CaseResult], pictures: dict[str, dict[str, str]]) -> str:
+    """The page's opening: every case's speed-against-error plot, open, each captioned with the case's verdict
+    and a link to its section; empty when no case has one."""
+    figures = [f'<figure class="speed" id="{esc(_speed_id(res.name))}"><img src="{pictures[res.name]["speed"]}" '
+               f'alt="speed against error, {esc(res.name)}"><figcaption><a href="#{esc(res.name)}">'
+               f"{esc(res.name)}</a>: {esc(_verdict(res))}</figcaption></figure>"
+               for res in results if "speed" in pictures.get(res.name, {})]
+    if not figures:
+        return ""
+    return ("<details open class=speed><summary><h2>Speed against error</h2></summary>"
+            "<p class=note>Each run timed and measured against the reference, log-log: microseconds per step "
+            "across, RMS error (m/s) up; filled markers passed the case, hollow failed; the reference is the "
+            "vertical line at its time per step. Lower left answers a case: as accurate for less time. Each "
+            "case's section has the Pareto front and the fastest solver to reach each error level.</p>"
+            f'<div class="speeds">{"".join(figures)}</div></details>')
+
+
 def report_html(results: list[CaseResult], pictures: dict[str, dict[str, str]], command: str, wall_seconds: float,
                 mach: dict[str, object], vers: dict[str, str],
                 states: dict[str, list[Snapshot]] | None = None) -> str:
@@ -276,6 +310,7 @@ def report_html(results: list[CaseResult], pictures: dict[str, dict[str, str]], 
         f"<p class=note><code>{esc(command)}</code> took {wall_seconds:.1f} s on {esc(mach['platform'])}, "
         f"{mach['cpus']} CPUs, compiled kernels {'on' if mach['compiled_kernels'] else 'off'}; "
         f"{esc(', '.join(f'{k} {v}' for k, v in vers.items()))}.</p>",
+        _speed_html(results, pictures),
         "<h2 id=summary>Summary</h2>",
         summary_html(results),
         "<h2>Cases</h2>",

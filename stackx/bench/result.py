@@ -114,8 +114,9 @@ DEFINITIONS = {
     "equal_cost": f"for each error level ({', '.join(f'{t:g}' for t in TARGETS)} m/s), the solver whose cheapest "
                   "run at or below that error takes the fewest microseconds per step, among runs that passed the "
                   "case (a run that fails is no answer, however fast and accurate its steps), with the solvers "
-                  f"tied with it (within {100 * TIE:.0f}% once both times are moved toward each other by their "
-                  "noise: the same cost, as timings go); the reference is left out "
+                  f"tied with it (a time at most {100 * TIE:.0f}% above the winner's, as measured, not moved by "
+                  "its noise: the same cost, as timings go; a noisy time is flagged unstable instead); the "
+                  "reference is left out "
                   "(its error is zero by definition) and its time shown beside",
     "pareto": "among runs that passed the case, those that no other passing run beats: at least as accurate and "
               f"more than {100 * TIE:.0f}% faster, or more accurate and not {100 * TIE:.0f}% slower (times "

@@ -1,7 +1,8 @@
 """The report's first screen: for each case, the cheapest solver that passes and why each other one fails.
 
 One row per case. Each solver is shown at the run ``compare.chosen`` picks (its smallest passing knob value,
-else its largest tried); the cheapest of those that passed, by microseconds per step, is the case's answer.
+else its largest tried); the cheapest of those that passed, by microseconds per step, is the case's answer,
+shown with its time (marked as ``stackx.bench.figures`` marks how it was stepped) and its error.
 Every other solver's cell says in a word or three why it failed at the most effort tried (hover for the
 values and limits), or from which knob value it passes too.
 """
@@ -11,9 +12,10 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 from stackx.bench.compare import by_solver, failing, label, outcomes, unstable, why
+from stackx.bench.figures import error_text, steppings, timed
 from stackx.bench.markup import esc, number, swatch, td
+from stackx.bench.stepping import COMPILED
 from stackx.bench.sweep import Record
-from stackx.bench.result import step_time
 
 if TYPE_CHECKING:
     from stackx.bench.result import CaseResult
@@ -41,12 +43,15 @@ def summary_html(results: list[CaseResult]) -> str:
     for res in results:
         shown = outcomes(res.records)
         best = shown[0] if shown and shown[0].passed else None
+        how = steppings(res)
         cells = [f'<td class="l"><a href="#{esc(res.name)}">{esc(res.name)}</a></td>']
         if best is None:
-            cells += [td("none passes", "fail l"), td("-")]
+            cells += [td("none passes", "fail l"), td("-"), td("-")]
         else:
             cells += [f'<td class="l pass"><b>{swatch(best.solver)}</b>{esc(_knob(best))}</td>',
-                      td(step_time(best), "warn" if unstable(best) else "", best.timing.get("unstable") or None)]
+                      td(timed(best, how.get(best.solver, COMPILED)), "warn" if unstable(best) else "",
+                         best.timing.get("unstable") or None),
+                      td(error_text(best))]
         runs = {r.solver: r for r in shown}
         for solver in solvers:
             rec = runs.get(solver)
@@ -55,19 +60,22 @@ def summary_html(results: list[CaseResult]) -> str:
             elif rec.passed:
                 text = "pass" + (f" {rec.value}" if rec.knob else "")
                 tip = (f"passes from {label(rec.solver, rec.knob, rec.value)} at {number(rec.us_per_step)} µs per "
-                       f"step; passed at {_passing(res, solver)}")
+                       f"step, {'the reference' if rec.reference else f'error {error_text(rec)} m/s'}; passed at "
+                       f"{_passing(res, solver)}")
                 cells.append(td(text, "pass best" if rec is best else "pass", tip))
             else:
                 at = f" at {rec.knob} {rec.value}" if rec.knob else ""
                 cells.append(td(why(rec), "fail", f"fails{at}: {failing(rec)}"))
         rows.append("<tr>" + "".join(cells) + "</tr>")
     words = "; ".join(f"<b>{esc(w)}</b>: {esc(m)}" for w, m in WORDS.items())
-    return (f'<table class="summary"><tr><th>case</th><th>cheapest that passes</th><th>µs per step</th>{head}</tr>'
-            + "".join(rows) + "</table>"
+    return (f'<table class="summary"><tr><th>case</th><th>cheapest that passes</th><th>µs per step</th>'
+            f'<th>error (m/s)</th>{head}</tr>' + "".join(rows) + "</table>"
             + "<p class=note>Each solver at its smallest knob value that passed ('pass N'), or, when none did, at "
             "the largest it tried, with what failed there (hover a cell for the values and limits). The cheapest "
             "is the fastest, in microseconds per step, of the solvers' smallest passing runs, the reference "
-            f"included: it answers the case. Words: {words}.</p>")
+            "included: it answers the case; its error is the RMS against the reference ('reference': zero by "
+            "definition), with its uncertainty where measured. A time marked 'py' was stepped as plain Python "
+            f"(no compiled kernels), '*' by an engine one step per call. Words: {words}.</p>")
 
 
 def _knob(rec: Record) -> str:

@@ -1,17 +1,18 @@
 """One ``stackx run``: step every experiment with a progress bar, write its artifacts, summarise.
 
-Nothing is written into the output folder while the runs step: each finished experiment's files are staged
-beside it, and when every experiment has finished the folder is switched to the staged one in a single step
-(``stackx.output.folder``), with its ``manifest.json`` (see ``stackx.output.manifest``) and ``timing.json``. A run killed or
-failing at any moment leaves the folder as it was; two runs into one folder take turns. A run that blows up
-commits the experiments finished before it and its partial measures in ``NAME.failed.json``, a file that a
-later successful run of the experiment removes. Wall-clock times, the one thing that differs from run to
-run, go to ``timing.json`` and nowhere else. Where the runs step (this process, or a Dask cluster) is the
-executor's business (``stackx.run.executor``); what is written does not depend on it.
+Nothing is written into the output folder while the runs step: each finished experiment's files are staged beside
+it, and when every experiment has finished the folder is switched to the staged one in a single step
+(``stackx.output.folder``), with its ``manifest.json`` (see ``stackx.output.manifest``) and ``timing.json``. A run
+killed or failing at any moment leaves the folder as it was; two runs into one folder take turns. A run that blows
+up commits the experiments finished before it and its partial measures in ``NAME.failed.json``, a file that a
+later successful run of the experiment removes. Wall-clock times, the one thing that differs from run to run, go
+to ``timing.json`` and nowhere else. Where the runs step (this process, or a Dask cluster) is the executor's
+business (``stackx.run.executor``); what is written does not depend on it.
 """
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 from typing import Any
 
@@ -27,8 +28,9 @@ from stackx.run.executor import Choice, open_executor
 from stackx.output.folder import FolderUpdate
 from stackx.output.outdir import MANIFEST, TIMING, OutputDir, failed_file, json_bytes, read_json
 from stackx.outputs import confine
+from stackx.run.lines import Finished
 from stackx.run.results import ExperimentResult
-from stackx.output.screen import screen
+from stackx.output.screen import TIMING_CAPTION, screen, timing_cell
 
 
 def run_all(specs: list[ExperimentSpec], out: Path, quiet: bool = False, wide: bool = False,
@@ -38,14 +40,17 @@ def run_all(specs: list[ExperimentSpec], out: Path, quiet: bool = False, wide: b
     blow-up, which keeps the experiments finished before it and the failed-run file."""
     console = Console(stderr=True)
     say = lambda line: console.print(line, markup=False, highlight=False, soft_wrap=True)  # noqa: E731
-    with FolderUpdate(out, waiting=say) as folder:
+    with FolderUpdate(out, say=say) as folder:
         preflight(specs, out)
         book = manifest.read(out)
+        own(folder, specs, book)
         results: list[ExperimentResult] = []
         blown: BlowUp | None = None
         columns = (TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn())
+        finished = Finished(console, "run", len(specs), quiet)  # the bar's lines where no bar is drawn
         with open_executor(choice or Choice()) as executor, \
-                Progress(*columns, console=console, transient=True, disable=quiet) as bar:
+                Progress(*columns, console=console, transient=True,
+                         disable=quiet or not console.is_terminal) as bar:  # no terminal: ``finished`` says it
             for spec, job in zip(specs, executor.experiments(specs)):
                 total = sum(r.steps for r in spec.runs)
                 task = bar.add_task(spec.name, total=total or 1)
@@ -58,6 +63,7 @@ def run_all(specs: list[ExperimentSpec], out: Path, quiet: bool = False, wide: b
                     break
                 book = _stage(spec, result, folder, book)
                 bar.update(task, completed=total or 1)
+                finished.done(spec.name)
                 results.append(result)
         if any(r.runs for r in results):
             _write_timing(results, folder)
@@ -72,13 +78,39 @@ def run_all(specs: list[ExperimentSpec], out: Path, quiet: bool = False, wide: b
 
 
 def preflight(specs: list[ExperimentSpec], out: Path) -> None:
-    """Refuse, before anything steps, an output folder that cannot take the artifacts or has a bad manifest."""
+    """Refuse, before anything steps, an output folder that cannot take the artifacts or has a bad manifest (or
+    a record, manifest or timing, over the bound of ``manifest.read_record``)."""
     if out.exists() and not out.is_dir():
         raise ConfigError("the output folder is a file", file=str(out))
     for spec in specs:
         for i, output in enumerate(spec.outputs):
             confine(output, lambda path, msg, i=i, spec=spec: spec.source.error(("outputs", i, *path), msg), out)
     manifest.read(out)
+    manifest.read_record(out / TIMING)  # merged into after the runs: refused now, not after them
+
+
+def listed(book: dict[str, Any] | None) -> set[str]:
+    """The files a manifest lists (its experiments' artifacts): the files of the folder that are stackx's."""
+    experiments = book.get("experiments") if isinstance(book, dict) else None
+    names: set[str] = set()
+    for entry in (experiments.values() if isinstance(experiments, dict) else ()):
+        artifacts = entry.get("artifacts") if isinstance(entry, dict) else None
+        names.update(n for n in (artifacts if isinstance(artifacts, dict) else ()) if isinstance(n, str))
+    return names
+
+
+def own(folder: FolderUpdate, specs: list[ExperimentSpec], book: dict[str, Any] | None) -> None:
+    """Tell ``folder`` which of its files the run may replace (those ``book``, the manifest before the run,
+    lists) and refuse, before anything steps, an output whose file is there and is not one of them: a run
+    replaces only stackx's own files."""
+    folder.ours = listed(book)
+    for spec in specs:
+        for i, output in enumerate(spec.outputs):
+            for name in output.files():
+                if name not in folder.ours and os.path.lexists(folder.root / name):
+                    raise spec.source.error(("outputs", i), f"{folder.shown / name} is not a file stackx wrote "
+                                            f"({MANIFEST} does not list it), and a run replaces only its own "
+                                            f"files: move it away or choose another path")
 
 
 def stage(spec: ExperimentSpec, result: ExperimentResult, out: Path) -> OutputDir:
@@ -111,7 +143,9 @@ def write(spec: ExperimentSpec, result: ExperimentResult, out: Path) -> list[Pat
     failed-run file it leaves behind. Return the files written."""
     with FolderUpdate(out) as folder:
         preflight([spec], out)
-        book = _stage(spec, result, folder, manifest.read(out))
+        book = manifest.read(out)
+        own(folder, [spec], book)
+        book = _stage(spec, result, folder, book)
         if book is not None:
             folder.write_records({MANIFEST: json_bytes(book)})
         written = [out / name for name in sorted(folder.added) if name != MANIFEST]
@@ -120,15 +154,14 @@ def write(spec: ExperimentSpec, result: ExperimentResult, out: Path) -> list[Pat
 
 
 def _write_timing(results: list[ExperimentResult], folder: FolderUpdate) -> None:
-    """Merge this invocation's wall times into ``timing.json`` (microseconds per step, per run)."""
+    """Merge this invocation's wall times into ``timing.json``: per run, ``RunResult.timing_record`` (µs/step,
+    seconds, how it stepped, whether the time is its own or a share of its batch's)."""
     doc = read_json(folder.read(TIMING))
     if not isinstance(doc, dict):
         doc = {}
     for result in results:
         if result.runs:
-            doc[result.spec.name] = {r.name: {"us_per_step": r.us_per_step, "wall_seconds": r.wall_seconds,
-                                              "compiled": r.compiled}
-                                      for r in result.runs}
+            doc[result.spec.name] = {r.name: r.timing_record() for r in result.runs}
     folder.write_records({TIMING: json_bytes(doc)})
 
 
@@ -138,9 +171,10 @@ MEASURED = (("max_depth", "depth m", "largest final penetration"), ("peak_depth"
 
 def summary(results: list[ExperimentResult], out: Path, wide: bool = False) -> Table:
     """One row per run. The default fits 80 columns (3 significant figures, names folded, numbers never cut);
-    ``wide`` adds the launch and reach monitors and full precision. µs/step says how the run was stepped:
-    ``jit`` compiled by numba (the compile not counted), ``py`` plain Python."""
-    caption = "µs/step: jit = compiled (compile not counted), py = plain Python"
+    ``wide`` adds the launch and reach monitors and full precision. µs/step says how the run was stepped
+    and timed (``stackx.output.screen.timing_cell``: ``jit``/``py``/``engine``, and ``≈`` for a share of a
+    batch's time)."""
+    caption = TIMING_CAPTION
     if any(r.measures.get("unsolved_steps") for result in results for r in result.runs):
         caption += ("\nsteps N (K unsolved): K steps missed the solver's own tolerance and kept its closest answer "
                     "(measures unsolved_steps, first_unsolved, worst_unsolved)")
@@ -167,10 +201,9 @@ def summary(results: list[ExperimentResult], out: Path, wide: bool = False) -> T
         if not result.runs:
             table.add_row(result.spec.name, "-", *["-"] * (3 + len(names) + judged))
         for r in result.runs:
-            how = "jit" if r.compiled else "py"
             table.add_row(f"{result.spec.name}/{r.name}", r.spec.solver_cls.plugin_name, str(r.spec.scene.final_size()),
                           _steps(r.spec.steps, r.measures), *(_number(r.measures, k, form) for k in names),
-                          f"{r.us_per_step:{form}} {how}", *([_verdict_cell(verdicts[id(r)])] if judged else []))
+                          timing_cell(r, form), *([_verdict_cell(verdicts[id(r)])] if judged else []))
     return table
 
 

@@ -20,6 +20,7 @@ from stackx.bench import plots as plots_module
 from stackx.bench.sweep import Record
 from tests.conftest import REPO, Cli
 from tests.lab.reference import png_header
+from tests.limits import hang_limit
 
 CASES = {
     "tall-6": """
@@ -71,7 +72,7 @@ def _write_cases(folder: Path) -> None:
 
 def _bench(folder: Path, out: Path, *extra: str) -> subprocess.CompletedProcess[str]:
     return subprocess.run([sys.executable, "-m", "stackx", "bench", str(folder), "--out", str(out), *extra],
-                          cwd=REPO, capture_output=True, text=True, timeout=600)
+                          cwd=REPO, capture_output=True, text=True, timeout=hang_limit(600))
 
 
 @pytest.fixture(scope="module")
@@ -252,17 +253,30 @@ def _own(case: dict) -> dict[str, list[dict]]:
     return {s: sorted(rs, key=lambda r: r["value"] or 0) for s, rs in by.items()}
 
 
-def test_report_opens_on_a_summary_of_cheapest_pass_and_reasons(bench_out: Path, doc: dict) -> None:
-    """The first section is the summary; each case row names the cheapest solver that passes (each solver at
-    its smallest passing knob value, the fastest of those) and, for every solver that failed everywhere, the
-    failed checks at its largest knob value (in the cell's hover text). Worked out here from bench.json."""
+def test_report_opens_on_speed_against_error_then_the_summary(bench_out: Path) -> None:
+    """The page opens on every case's speed-against-error plot, in a section that is open, each linked to its
+    case; the summary follows, then the cases, each a collapsible section (closed) that links back to its plot."""
     parsed = _parsed(bench_out)
-    assert parsed.order[:2] == ["h1:stackx bench", "h2:Summary"]
+    assert parsed.order[:4] == ["h1:stackx bench", "details#.speed", "h2:Speed against error", "h2:Summary"]
+    page = (bench_out / "out" / "report.html").read_text()
+    opening = page[page.index("<details open class=speed>"):page.index("<h2 id=summary>")]
+    plots = re.findall(r'<figure class="speed" id="speed:([\w-]+)"><img src="data:image/png;base64,[^"]+" '
+                       r'alt="speed against error, ([\w-]+)"><figcaption><a href="#([\w-]+)">', opening)
+    assert [p[0] for p in plots] == sorted(CASES) and all(len(set(p)) == 1 for p in plots)
     cases = [o for o in parsed.order if o.endswith(".case")]
     assert cases == [f"details#{name}.case" for name in sorted(CASES)], "each case is a collapsible section"
+    for name in CASES:
+        assert f'<a href="#speed:{name}">speed against error, {name}</a>' in page
+
+
+def test_report_summary_gives_the_cheapest_pass_its_time_error_and_the_reasons(bench_out: Path, doc: dict) -> None:
+    """Each case row of the summary names the cheapest solver that passes (each solver at its smallest passing
+    knob value, the fastest of those), its time and its error, and, for every solver that failed everywhere,
+    the failed checks at its largest knob value (in the cell's hover text). Worked out here from bench.json."""
+    parsed = _parsed(bench_out)
     summary = parsed.tables[0]
     head = [text for text, _ in summary[0]]
-    assert head[:3] == ["case", "cheapest that passes", "µs per step"]
+    assert head[:4] == ["case", "cheapest that passes", "µs per step", "error (m/s)"]
     rows = {row[0][0]: row for row in summary[1:]}
     assert sorted(rows) == sorted(CASES)
     for case in doc["cases"]:
@@ -276,6 +290,8 @@ def test_report_opens_on_a_summary_of_cheapest_pass_and_reasons(bench_out: Path,
             figure, spread = cells["µs per step"][0].rstrip("!").split(" +")  # '0.51 +5%': the fastest repeat, spread
             assert float(figure) == pytest.approx(best["us_per_step"], rel=5e-3)  # 3 figures
             assert spread == f"{100 * best['timing']['spread']:.0f}%"
+            error = "reference" if best["reference"] else format(best["error"]["rms"], ".3g")
+            assert cells["error (m/s)"][0] == error
         else:
             assert cells["cheapest that passes"][0] == "none passes"
         for solver, recs in own.items():
@@ -484,24 +500,32 @@ def test_hard_configs_validate_and_name_every_case(cli: Cli) -> None:
 
 
 def test_the_terminal_output_fits_80_columns(bench_out: Path, tmp_path: Path) -> None:
-    """By default each case is a short table (solver, smallest passing knob, µs/step with its spread, verdict in
-    the summary's words) and what it comes to, every line within 80 columns; ``--wide`` (the fixture's) adds
-    the full tables and the matrix."""
+    """By default each case is a short table (solver, knob, µs/step with its spread, error, verdict in the
+    summary's words) and what it comes to, every line within 80 columns; ``--wide`` (the fixture's) adds the
+    full tables and the matrix."""
     import os
 
     solvers = "pgs,warm-start,split-impulse,exact,soft-step"
     done = subprocess.run([sys.executable, "-m", "stackx", "bench", str(bench_out / "cases"), "--solvers", solvers,
-                           "--out", str(tmp_path / "out")], cwd=REPO, capture_output=True, text=True, timeout=600,
+                           "--out", str(tmp_path / "out")], cwd=REPO, capture_output=True, text=True, timeout=hang_limit(600),
                           env={**os.environ, "COLUMNS": "80"})
     assert done.returncode == 0, done.stderr
     lines = done.stdout.splitlines()
     assert max(len(line) for line in lines) <= 80, max(lines, key=len)
-    assert "stability matrix" not in done.stdout and "passes from" in done.stdout
+    assert "stability matrix" not in done.stdout
+    assert any(line.split() == ["solver", "knob", "µs/step", "error", "m/s", "verdict"] for line in lines)
     doc = json.loads((tmp_path / "out" / "bench.json").read_text())
     for case in doc["cases"]:
         assert f"{case['name']}: " in done.stdout
         for solver in solvers.split(","):
             assert any(line.split()[:1] == [solver] for line in lines), solver
+        rows = [line.split() for line in done.stdout.split(f"{case['name']}: ", 1)[1].splitlines()]
+        for rec in case["records"]:
+            shown = next((s for s in case["shown"] if (s["solver"], s["value"]) == (rec["solver"], rec["value"])), None)
+            if shown is None or rec["variant"] != "case" or rec["blew_up"] or rec["crushed"]:
+                continue
+            row = next(r for r in rows if r[:1] == [rec["solver"]])
+            assert ("reference" if rec["reference"] else format(rec["error"]["rms"], ".3g")) in row, row
         for shown in case["shown"]:
             if not shown["passed"]:
                 words = shown["why"].replace(",", " ").split()  # the summary's words, not the measures' names

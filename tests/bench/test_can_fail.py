@@ -20,6 +20,7 @@ from pathlib import Path
 import pytest
 
 from tests.conftest import REPO
+from tests.limits import hang_limit
 
 G, DT = -9.8, 1 / 60
 CASES = {
@@ -48,7 +49,7 @@ def records(tmp_path_factory: pytest.TempPathFactory) -> dict[str, dict]:
     for name, text in CASES.items():
         (tmp / f"{name}.yaml").write_text(text + "dt: 1/60\nbench: {timing: {steps: 5, repeats: 1}}\n")
     done = subprocess.run([sys.executable, "-m", "stackx", "bench", str(tmp), "--solvers", "exact,pgs", "--out",
-                           str(tmp / "out"), "-q"], cwd=REPO, capture_output=True, text=True, timeout=300)
+                           str(tmp / "out"), "-q"], cwd=REPO, capture_output=True, text=True, timeout=hang_limit(300))
     assert done.returncode == 0, done.stderr
     doc = json.loads((tmp / "out" / "bench.json").read_text())
     return {c["name"]: next(r for r in c["records"] if r["solver"] == ("pgs" if c["name"] == "thrown" else "exact")

@@ -10,6 +10,7 @@ import pytest
 
 from tests.bench import reference as ref
 from tests.conftest import Cli
+from tests.limits import hang_limit
 
 BOXES = [{"y": 0.501}, {"y": 1.3}, {"y": 2.6, "mass": 3.0}, {"y": 3.9}]  # boxes landing on each other
 STEPS = 150
@@ -38,7 +39,7 @@ bench:
 """)
     done = subprocess.run([sys.executable, "-m", "stackx", "bench", str(tmp / "landing.yaml"), "--solvers",
                            "pgs,exact", "--out", str(tmp / "out"), "-q"], cwd=REPO, capture_output=True, text=True,
-                          timeout=300)
+                          timeout=hang_limit(300))
     assert done.returncode == 0, done.stderr
     return json.loads((tmp / "out" / "bench.json").read_text())
 
@@ -114,7 +115,7 @@ bench: {{knob: [16], timing: {{steps: 5, repeats: 1}}}}
 """)
     done = subprocess.run([sys.executable, "-m", "stackx", "bench", str(config), "--solvers", "warm-start",
                            "--out", str(tmp_path / "out"), "-q"], cwd=REPO, capture_output=True, text=True,
-                          timeout=300)
+                          timeout=hang_limit(300))
     assert done.returncode == 0, done.stderr
     (rec,) = json.loads((tmp_path / "out" / "bench.json").read_text())["cases"][0]["records"]
     result = run_experiment(load(str(config)), record=set(range(DROP_STEPS + 1))).runs[0]

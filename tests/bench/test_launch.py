@@ -26,6 +26,7 @@ from stackx.config.experiment import load
 from stackx.bench.criteria import Criteria, judge
 from stackx.errors import BlowUp
 from stackx.run.runner import run_experiment
+from tests.conftest import REPO
 from stackx.config.spec import Plan
 from tests.conftest import CONFIGS
 
@@ -100,9 +101,9 @@ def _planar_launch(frames: list[dict[str, list[float]]], dt: float) -> float:
 
 
 def _runs(path: object, model: str) -> tuple[object, list[tuple[str, int | None, object]]]:
-    """The bench's runs of the case at ``path`` for every solver of ``model`` (local plugins the config finds
-    included) at every knob value, stepped with every state kept: the case and (solver, knob value, result)."""
-    spec = load(str(path))
+    """The bench's runs of the case at ``path`` for every solver of ``model`` (the shipped local
+    plugins included) at every knob value, stepped with every state kept: the case and (solver, knob value, result)."""
+    spec = load(str(path), plugins=REPO / "plugins")
     case, left_out = load_case(spec, _solvers(model))
     assert not left_out, left_out
     specs = [(p.solver, value if p.knob else None,

@@ -22,6 +22,7 @@ import pytest
 
 import stackx
 from tests.conftest import REPO, run_cli
+from tests.limits import hang_limit
 
 pytestmark = pytest.mark.wheel
 
@@ -58,7 +59,7 @@ def _venv_seeing_this_python(venv: Path) -> Path:
     that is not where this Python's dependencies are. A ``.pth`` line appends a folder to ``sys.path``
     without running the ``.pth`` files in it, so an editable install of this checkout stays out.
     """
-    subprocess.run([sys.executable, "-m", "venv", "--without-pip", str(venv)], check=True, timeout=120)
+    subprocess.run([sys.executable, "-m", "venv", "--without-pip", str(venv)], check=True, timeout=hang_limit(120))
     python = venv / "bin" / "python"
     own = subprocess.run([str(python), "-c", "import sysconfig; print(sysconfig.get_paths()['purelib'])"],
                          check=True, capture_output=True, text=True).stdout.strip()
@@ -77,7 +78,7 @@ def test_stackx_init_then_run_from_an_installed_wheel(tmp_path: Path) -> None:
             shutil.copy2(src, source / name)
     dist = tmp_path / "dist"
     subprocess.run([sys.executable, "-m", "pip", "wheel", "--no-deps", "--quiet", "-w", str(dist), str(source)],
-                   check=True, capture_output=True, text=True, timeout=300)
+                   check=True, capture_output=True, text=True, timeout=hang_limit(300))
     wheel = next(dist.glob("stackx-*.whl"))
     assert wheel.name.startswith(f"stackx-{stackx.__version__}-")
 
@@ -90,13 +91,13 @@ def test_stackx_init_then_run_from_an_installed_wheel(tmp_path: Path) -> None:
     venv = tmp_path / "venv"
     python = _venv_seeing_this_python(venv)
     subprocess.run([sys.executable, "-m", "pip", "--python", str(python), "install", "--no-deps", "--no-index",
-                    "--quiet", str(wheel)], check=True, capture_output=True, text=True, timeout=300)
+                    "--quiet", str(wheel)], check=True, capture_output=True, text=True, timeout=hang_limit(300))
 
     empty = tmp_path / "empty"
     empty.mkdir()
     env = _env(venv)
     done = subprocess.run(["bash", "-c", "stackx init lab && stackx run lab/configs/"], cwd=empty, env=env,
-                          capture_output=True, text=True, timeout=300)
+                          capture_output=True, text=True, timeout=hang_limit(300))
     assert done.returncode == 0, done.stderr
 
     # it was the installed package that ran, with the version written in one place

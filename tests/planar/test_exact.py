@@ -98,7 +98,7 @@ def test_the_run_table_flags_a_run_with_unsolved_steps() -> None:
     from stackx.run.session import summary
 
     def run(name: str, missed: int) -> SimpleNamespace:
-        spec = SimpleNamespace(solver_cls=SimpleNamespace(plugin_name="planar-exact"),
+        spec = SimpleNamespace(solver_cls=PlanarExact,
                                scene=SimpleNamespace(final_size=lambda: 20), steps=360)
         return SimpleNamespace(name=name, spec=spec, compiled=True, us_per_step=1.0,
                                measures={"max_depth": 0.0, "peak_depth": 0.0, "rms_motion": 0.0,

@@ -6,8 +6,8 @@
 - The player with controls, for two runs side by side and for the lab's whole settling: space pauses and
   plays, the arrows step, Home and End jump, the slider picks a frame, ``+`` speeds it up; every panel shows
   the same frame, and the label its step and time.
-- The bench report: it opens on the summary, its cases are closed until a link opens one, every picture
-  is drawn.
+- The bench report: it opens on speed against error, open, its plot on the first screen; the summary follows;
+  its cases are closed until a link in the summary opens one; every picture is drawn.
 
 No page may log a console error or page error, or have a request fail or answer an HTTP error. Screenshots
 are kept in ``test-artifacts/`` (``player.png``, ``compare.png``, ``settling.png``, ``report.png``,
@@ -29,6 +29,7 @@ from typer.testing import CliRunner
 from stackx.cli import app
 from tests.conftest import CONFIGS, REPO, Shown
 from tests.lab.reference import read_png
+from tests.limits import hang_limit
 
 CHROMIUM = Path("/usr/bin/chromium")
 ARTIFACTS = REPO / "test-artifacts"
@@ -251,27 +252,30 @@ bench: {knob: [2, 16], timing: {steps: 10, repeats: 1}}
 """
 
 
-def test_report_opens_on_its_summary_and_opens_a_case_from_it(tmp_path: Path,
-                                                              shown: Shown) -> None:
+def test_report_opens_on_speed_against_error_and_opens_a_case_from_its_summary(tmp_path: Path,
+                                                                               shown: Shown) -> None:
     _browser()
     (tmp_path / "cases").mkdir()
     (tmp_path / "cases" / "tall-6.yaml").write_text(BENCH_CASE)
     done = subprocess.run([sys.executable, "-m", "stackx", "bench", str(tmp_path / "cases"), "--out",
                            str(tmp_path / "out"), "--solvers", "pgs,warm-start,exact", "-q"],
-                          cwd=REPO, capture_output=True, text=True, timeout=600)
+                          cwd=REPO, capture_output=True, text=True, timeout=hang_limit(600))
     assert done.returncode == 0, done.stderr
     with serving(tmp_path / "out") as url, browsing(tmp_path / "profile") as (page, problems):
         page.goto(url + "report.html", wait_until="load")  # type: ignore[attr-defined]
-        first = page.locator("h2").first.text_content()  # type: ignore[attr-defined]
-        table = page.locator("table.summary").bounding_box()  # type: ignore[attr-defined]
+        heads = page.eval_on_selector_all("h2", "els => els.map(e => e.textContent)")  # type: ignore[attr-defined]
+        opened = page.eval_on_selector("h2", "h => h.closest('details') !== null && h.closest('details').open")  # type: ignore[attr-defined]
+        plot = page.locator("figure.speed img").first.bounding_box()  # type: ignore[attr-defined]
         closed = page.eval_on_selector("details.case", "d => d.open")  # type: ignore[attr-defined]
         keep(page, "report.png", shown)
         page.click("table.summary a[href='#tall-6']")  # type: ignore[attr-defined]
         page.wait_for_function("document.getElementById('tall-6').open")  # type: ignore[attr-defined]
         images = page.eval_on_selector_all("img", "els => els.map(e => [e.complete, e.naturalWidth])")  # type: ignore[attr-defined]
         keep(page, "report-case.png", shown)
-    assert first == "Summary"
-    assert table is not None and table["y"] + table["height"] <= 900, "the summary fits the first screen"
+    assert heads[:2] == ["Speed against error", "Summary"], heads
+    assert opened is True, "the speed-against-error section is open without a click"
+    assert plot is not None and plot["height"] > 200 and plot["y"] + plot["height"] <= 900, \
+        f"the plot is drawn on the first screen: {plot}"
     assert closed is False
     assert len(images) == 2 and all(done and width > 300 for done, width in images), images
     assert not problems, problems
