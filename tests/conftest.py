@@ -10,6 +10,8 @@ from pathlib import Path
 
 import pytest
 
+from tests.limits import hang_limit
+
 REPO = Path(__file__).resolve().parents[1]
 CONFIGS = REPO / "configs"
 
@@ -17,12 +19,15 @@ Cli = Callable[..., subprocess.CompletedProcess[str]]
 
 
 def run_cli(*args: object, cwd: Path = REPO, env: dict[str, str] | None = None,
-            timeout: float = 120) -> subprocess.CompletedProcess[str]:
+            timeout: float | None = 120) -> subprocess.CompletedProcess[str]:
     """Run ``python -m stackx ARGS`` in a subprocess and return the completed process (text output). The
-    package is this checkout's, from any working folder (not whichever copy is installed)."""
+    package is this checkout's, from any working folder (not whichever copy is installed). ``timeout``: the
+    command's time on an idle machine with room, a guard against a hang scaled by ``tests.limits.hang_limit``
+    (None: no limit)."""
     path = os.pathsep.join(p for p in (str(REPO), os.environ.get("PYTHONPATH")) if p)
     return subprocess.run([sys.executable, "-m", "stackx", *map(str, args)], cwd=cwd, capture_output=True,
-                          text=True, timeout=timeout, env={**os.environ, "PYTHONPATH": path, **(env or {})})
+                          text=True, timeout=None if timeout is None else hang_limit(timeout),
+                          env={**os.environ, "PYTHONPATH": path, **(env or {})})
 
 
 @pytest.fixture

@@ -35,6 +35,7 @@ def test_the_api_example_prints_what_it_says(tmp_path: Path) -> None:
     lines = printed.getvalue().splitlines()
     assert lines[0] == "(91, 5) 15.0"
     assert set(json.loads(lines[2].replace("'", '"'))) == {"it1", "it4", "it16"}
+    assert lines[3] == "['exact', 'warm-start']"
 
 
 def test_arrays_are_the_states_the_command_line_writes(cli: Cli, tmp_path: Path) -> None:
