@@ -12,6 +12,7 @@ import pytest
 from stackx.errors import ConfigError
 from stackx.run.executor import Choice
 from tests.conftest import CONFIGS, REPO, Cli
+from tests.limits import hang_limit
 
 
 def test_help_imports_no_dask() -> None:
@@ -19,7 +20,7 @@ def test_help_imports_no_dask() -> None:
             "for command in ([], ['run'], ['bench']):\n"
             "    try:\n        app([*command, '--help'])\n    except SystemExit:\n        pass\n"
             "print('HEAVY', [m for m in ('dask', 'distributed', 'numpy') if m in sys.modules])")
-    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=REPO, timeout=60)
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=REPO, timeout=hang_limit(60))
     assert done.stdout.count("Usage") == 3 and done.stdout.count("--scheduler") == 2
     assert done.stdout.strip().splitlines()[-1] == "HEAVY []"
 
@@ -48,7 +49,7 @@ def test_without_dask_the_error_says_how_to_install_it(tmp_path: Path) -> None:
     code = ("import sys; sys.modules['distributed'] = None\nfrom stackx.cli import app\n"
             f"app(['bench', {str(CONFIGS / '03-sink.yaml')!r}, '--out', {str(tmp_path / 'out')!r}, "
             "'--executor', 'dask'])")
-    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=REPO, timeout=60)
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, cwd=REPO, timeout=hang_limit(60))
     assert done.returncode == 2, done.stderr
     assert done.stderr.startswith("error: <input>: --executor dask needs Dask's distributed scheduler: python3 -m "
                                   "pip install 'dask[distributed]'")

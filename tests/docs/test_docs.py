@@ -20,6 +20,7 @@ from pathlib import Path
 import pytest
 
 from tests.conftest import REPO
+from tests.limits import hang_limit
 
 PAGES = [REPO / "README.md", *sorted((REPO / "docs").glob("*.md"))]
 FENCE = re.compile(r"^```([^\n]*)\n(.*?)^```[ \t]*$", re.S | re.M)
@@ -157,5 +158,5 @@ def test_runnable_blocks_run(page: Path, tmp_path: Path) -> None:
                 command = [sys.executable, "-c", block.text]
             else:
                 pytest.fail(f"{where}: cannot run a {block.language!r} block")
-            done = subprocess.run(command, cwd=tmp_path, env=env, capture_output=True, text=True, timeout=600)
+            done = subprocess.run(command, cwd=tmp_path, env=env, capture_output=True, text=True, timeout=hang_limit(600))
             assert done.returncode == 0, f"{where} failed:\n{done.stdout[-2000:]}\n{done.stderr[-2000:]}"

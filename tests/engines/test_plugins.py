@@ -16,6 +16,7 @@ import pytest
 from stackx import registry
 from tests.conftest import CONFIGS, REPO, Cli
 from tests.engines.need import ENGINES, missing
+from tests.limits import hang_limit
 
 PACKAGES = ("pymunk", "Box2D", "pyb2d3", "mujoco")  # what the engines import
 HIDE = ("import sys\n"
@@ -30,7 +31,7 @@ def without(packages: tuple[str, ...], *args: str | Path, cwd: Path = REPO) -> s
     """``stackx ARGS`` from this checkout in a process where ``packages`` cannot be imported."""
     env = {**os.environ, "PYTHONPATH": str(REPO), "COLUMNS": "300"}
     return subprocess.run([sys.executable, "-c", HIDE, ",".join(packages), *map(str, args)], cwd=cwd, env=env,
-                          capture_output=True, text=True, timeout=300)
+                          capture_output=True, text=True, timeout=hang_limit(300))
 
 
 def test_listing_and_validating_import_no_engine() -> None:
@@ -41,7 +42,7 @@ def test_listing_and_validating_import_no_engine() -> None:
             "load(sys.argv[1])\n"
             "print(json.dumps([names, [m for m in sys.argv[2:] if m in sys.modules]]))\n")
     done = subprocess.run([sys.executable, "-c", code, str(CONFIGS / "06-stack.yaml"), *PACKAGES], cwd=REPO,
-                          capture_output=True, text=True, timeout=120)
+                          capture_output=True, text=True, timeout=hang_limit(120))
     assert done.returncode == 0, done.stderr
     names, imported = json.loads(done.stdout)
     assert set(ENGINES) <= set(names) and imported == []
@@ -98,7 +99,7 @@ def test_the_bench_times_an_engine_per_call_and_says_so(tmp_path: Path) -> None:
                       "solver: {name: pgs}\nsteps: 60\n"
                       "bench: {knob: [2], timing: {steps: 5, repeats: 2}}\n")
     done = subprocess.run([sys.executable, "-m", "stackx", "bench", str(config), "--solvers", f"{engine},pgs",
-                           "--out", str(tmp_path / "out")], cwd=REPO, capture_output=True, text=True, timeout=300,
+                           "--out", str(tmp_path / "out")], cwd=REPO, capture_output=True, text=True, timeout=hang_limit(300),
                           env={**os.environ, "COLUMNS": "200"})
     assert done.returncode == 0, done.stderr
     doc = json.loads((tmp_path / "out" / "bench.json").read_text())

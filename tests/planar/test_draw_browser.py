@@ -14,6 +14,7 @@ from stackx.cli import app
 from tests.conftest import Shown
 from tests.planar.test_draw import PLANAR
 from tests.robust.test_player_browser import _shown, browsing, keep, serving
+from tests.limits import hang_limit
 
 
 def _label(k: int, steps: list[int]) -> str:
@@ -79,7 +80,7 @@ def test_the_report_draws_a_planar_case(tmp_path: Path, shown: Shown) -> None:
     (tmp_path / "cases" / "stack-3.yaml").write_text(BENCH_CASE)
     done = subprocess.run([sys.executable, "-m", "stackx", "bench", str(tmp_path / "cases"), "--out",
                            str(tmp_path / "out"), "--solvers", "planar-pgs", "-q"],
-                          cwd=REPO, capture_output=True, text=True, timeout=600)
+                          cwd=REPO, capture_output=True, text=True, timeout=hang_limit(600))
     assert done.returncode == 0, done.stderr
     with serving(tmp_path / "out") as url, browsing(tmp_path / "profile") as (page, problems):
         page.goto(url + "report.html#stack-3", wait_until="load")  # type: ignore[attr-defined]

@@ -29,6 +29,7 @@ import pytest
 from stackx.models.planar.problem import ContactProblem, residual
 from stackx.models.planar.reference import solve
 from tests.planar.test_reference import _jacobian, _recorded
+from tests.limits import hang_limit
 
 SYSTEM = "/usr/bin/python3"
 
@@ -67,7 +68,7 @@ def _siconos(problems: list[ContactProblem]) -> list[tuple[np.ndarray, np.ndarra
         target[0::2] = p.target
         sent.append({"W": (jac @ (inv[:, None] * jac.T)).tolist(),
                      "q": (jac @ p.velocity.reshape(-1) - target).tolist(), "mu": p.friction.tolist()})
-    done = subprocess.run([SYSTEM, "-c", SOLVE], input=json.dumps(sent), capture_output=True, text=True, timeout=600)
+    done = subprocess.run([SYSTEM, "-c", SOLVE], input=json.dumps(sent), capture_output=True, text=True, timeout=hang_limit(600))
     assert done.returncode == 0, done.stderr[-2000:]
     answers = json.loads(done.stdout)
     assert [a["info"] for a in answers] == [0] * len(problems)

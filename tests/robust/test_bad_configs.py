@@ -30,6 +30,7 @@ from typer.testing import CliRunner
 
 from stackx.cli import app
 from tests.conftest import CONFIGS, REPO, Shown
+from tests.limits import hang_limit
 
 from .yamlgen import Path as KeyPath
 from .yamlgen import dotted, emit
@@ -364,7 +365,7 @@ def test_real_processes_print_no_traceback(tmp_path: Path) -> None:
         config.write_text(stack.replace(swaps[new], new, 1))
         out = tmp_path / f"out{i}"
         done = subprocess.run([sys.executable, "-m", "stackx", "run", str(config), "--out", str(out)], cwd=REPO,
-                              capture_output=True, text=True, timeout=120)
+                              capture_output=True, text=True, timeout=hang_limit(120))
         assert done.returncode == 2, done.stderr
         assert "Traceback" not in done.stderr and done.stdout == ""
         assert len(done.stderr.strip().splitlines()) == 1 and LINE.match(done.stderr.strip()), done.stderr

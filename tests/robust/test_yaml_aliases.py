@@ -14,6 +14,7 @@ import yaml
 from stackx.errors import ConfigError
 from stackx.config.yamlsrc import MAX_ALIAS_NODES, load_text
 from tests.conftest import CONFIGS, REPO
+from tests.limits import hang_limit
 
 LEVELS, WIDTH = 10, 9
 MEASURE = """import json, resource, subprocess, sys, time
@@ -64,7 +65,7 @@ def test_an_alias_bomb_stops_located_in_well_under_a_second_and_little_memory(tm
     # A small Python process starts stackx and reports its CPU time and peak memory: a child started straight
     # from pytest would count pytest's own memory, which the child's high-water mark inherits at the fork.
     done = subprocess.run([sys.executable, "-c", MEASURE, sys.executable, "-m", "stackx", "validate", str(config)],
-                          cwd=tmp_path, env=env, capture_output=True, text=True, timeout=60)
+                          cwd=tmp_path, env=env, capture_output=True, text=True, timeout=hang_limit(60))
     code, cpu, wall, peak_kb = json.loads(done.stdout)
     message = done.stderr
     peak_mb = peak_kb / 1024  # ru_maxrss is in kilobytes on Linux
