@@ -9,13 +9,12 @@ import shutil
 import subprocess
 import sys
 import tempfile
-import threading
 from pathlib import Path
 
 import pytest
 
 from tests.conftest import CONFIGS, Cli
-from tests.limits import hang_limit
+from tests.peak import peak_run
 
 CONFIG = CONFIGS / "06-stack.yaml"
 
@@ -80,24 +79,13 @@ MEMORY = 500 << 20  # most a command may take, in bytes, when the folder holds a
 
 
 def measured(*args: object, timeout: float = 300) -> tuple[subprocess.CompletedProcess[str], int]:
-    """``run_cli``, with the most memory (resident bytes) the command's own process took."""
+    """``run_cli``, with the most memory (resident bytes) the command's own process took (``tests.peak``)."""
     from tests.conftest import REPO
 
     path = os.pathsep.join(p for p in (str(REPO), os.environ.get("PYTHONPATH")) if p)
-    with tempfile.TemporaryFile("w+") as out, tempfile.TemporaryFile("w+") as err:
-        child = subprocess.Popen([sys.executable, "-m", "stackx", *map(str, args)], cwd=REPO, stdout=out,
-                                 stderr=err, text=True, env={**os.environ, "PYTHONPATH": path})
-        watchdog = threading.Timer(hang_limit(timeout) or threading.TIMEOUT_MAX, child.kill)
-        watchdog.start()
-        try:
-            _, status, usage = os.wait4(child.pid, 0)
-        finally:
-            watchdog.cancel()
-        child.returncode = os.waitstatus_to_exitcode(status)
-        out.seek(0)
-        err.seek(0)
-        done = subprocess.CompletedProcess(child.args, child.returncode, out.read(), err.read())
-    return done, usage.ru_maxrss * 1024  # Linux counts it in KiB
+    with tempfile.TemporaryDirectory() as tmp:
+        return peak_run([sys.executable, "-m", "stackx", *map(str, args)], REPO, {**os.environ, "PYTHONPATH": path},
+                        Path(tmp), timeout)
 
 
 def _listing(folder: Path) -> dict[str, tuple[int, int]]:
