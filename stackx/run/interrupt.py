@@ -51,6 +51,7 @@ class _State:
     first = 0  # the signal being answered (0 while the command runs)
     said = False  # the one line is printed
     late = "interrupted"  # the line for a signal once the command is over
+    over = False  # the command is over (done, failed or interrupted)
     unraisable = sys.__unraisablehook__  # the hook for every other error in a finalizer
 
 
@@ -191,12 +192,27 @@ def run(main: object) -> None:
             main()  # type: ignore[operator]
         finally:
             _over()
+            _wait_for_threads()
     except Interrupted as stop:
         _leave(stop)
 
 
+def _wait_for_threads() -> None:
+    """Wait here, in short joins, for the threads Python would wait for at exit (a pool's, a cluster's). The
+    system hands a signal to any thread of the process; Python's own wait at exit is woken only by one handed to
+    the main thread, so a SIGTERM landing on another thread would go unanswered. Joined a tenth of a second at a
+    time, the main thread answers a signal whichever thread took it."""
+    import threading
+
+    for thread in threading.enumerate():
+        if thread is not threading.main_thread() and not thread.daemon:
+            while thread.is_alive():
+                thread.join(0.1)
+
+
 def _over() -> None:
     """The command is over (done, failed or interrupted): a signal from now on ends the process at once."""
+    _state.over = True
     if not _state.first:
         _state.late = message(sys.argv[1:])
         _answer_with(_late)

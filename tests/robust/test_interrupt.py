@@ -215,11 +215,12 @@ FINALIZER = """
     interrupt.run(main)
 """
 AT_EXIT = """
-    import threading
+    import threading, time
     from stackx.run import interrupt
 
     def linger():
-        threading.main_thread().join()  # returns once the command is over and Python waits for this thread
+        while not interrupt._state.over:  # the command is over; the process waits for this thread
+            time.sleep(0.01)
         print("done", flush=True)
         threading.Event().wait()
 
@@ -241,6 +242,33 @@ def test_a_signal_in_a_finalizer_is_one_line_not_a_printed_traceback(name: str) 
 def test_a_signal_while_the_process_ends_is_one_line(name: str) -> None:
     # the command is over, but Python waits for a thread at exit (as it does for a pool or a cluster)
     assert _stopped_after(AT_EXIT, "done", name) == (128 + signals.Signals[name], "", "interrupted\n")
+
+
+SELF_SIGNALLED = """
+    import signal, threading, time
+    from stackx.run import interrupt
+
+    def linger():
+        while not interrupt._state.over:
+            time.sleep(0.01)
+        signal.pthread_kill(threading.get_ident(), signal.SIGNAME)  # handed to this thread, not the main one
+        threading.Event().wait()
+
+    def main():
+        threading.Thread(target=linger).start()
+
+    interrupt.install()
+    interrupt.run(main)
+"""
+
+
+@pytest.mark.parametrize("name", ["SIGINT", "SIGTERM"])
+def test_a_signal_handed_to_another_thread_at_exit_is_answered(name: str) -> None:
+    # Python's own wait for threads at exit wakes only for a signal the main thread takes: this one never would
+    code = textwrap.dedent(SELF_SIGNALLED).replace("SIGNAME", name)
+    done = subprocess.run([*AT_DEFAULT, sys.executable, "-c", code], cwd=REPO, env=environ(), capture_output=True,
+                          text=True, timeout=hang_limit(60))
+    assert (done.returncode, done.stdout, done.stderr) == (128 + signals.Signals[name], "", "interrupted\n")
 
 
 def _stopped_after(code: str, line: str, name: str) -> tuple[int, str, str]:
