@@ -17,7 +17,11 @@ Planar scenes are judged by the same three, with the checks that can fail on the
 its measure is there (the model measures it on this scene) and the model does not leave it out
 (``Model.unjudged``). "Holds" adds **drift**: the boxes placed where they should stay (``drift_x``, the largest
 horizontal motion, at most ``drift``; ``drift_angle``, the largest rotation, at most ``turn``) and, on a ramp,
-the box's acceleration down the slope within ``slide`` of the analytic g (sin a - mu cos a) (``slide_error``);
+the box's acceleration down the slope within ``slide`` of the analytic answer (``slide_error``): 0 where the
+statics of a rigid box say it sticks, g (sin a - mu cos a) where they say it slides, and then flat, turned by at
+most ``turn`` (``slide_turn``); a turn downhill of at least ``tip`` where they say it tips or pivots over its
+downhill corner (``tip_turn``); a box pushed along the ground stops between the distance of the model's own
+steps and v^2 / (2 mu g), to within ``stops`` of the latter (``stop_error``);
 a box dropped to land on a face ends within ``turn`` of a multiple of 90 degrees (``land_tilt``), and every
 box placed to topple ends at least ``fall`` from upright (``fall_tilt``).
 The top box's rest height is judged where a rigid pile gives it one (a stack, a pyramid, heavy on light), over
@@ -29,6 +33,7 @@ The limits are a config's ``bench.criteria`` section; the defaults are the hard 
 
 from __future__ import annotations
 
+import math
 from collections.abc import Collection, Mapping
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
@@ -40,7 +45,8 @@ if TYPE_CHECKING:
 
 NAMES = ("holds", "settled", "never_launched")
 WORDS = {"max_depth": "overlaps", "max_gap": "gap", "reach": "crushed", "rms_motion": "moving",
-         "launch": "launched", "drift_x": "drifted", "drift_angle": "turned", "slide_error": "slides wrong"}
+         "launch": "launched", "drift_x": "drifted", "drift_angle": "turned", "slide_error": "slides wrong",
+         "slide_turn": "turned", "tip_turn": "did not tip", "stop_error": "stops wrong"}
 # a failed check in a word, the one word every output (``stackx run``, the bench's terminal and report) uses
 # for it; |top_rest_error| is 'sunk' or 'high' by its sign (``word``)
 
@@ -77,6 +83,13 @@ class Criteria(BaseModel):
     slide: float = Field(1e-3, gt=0, allow_inf_nan=False,
                          description="(planar ramp) 'holds' allows the box's acceleration down the slope to differ "
                                      "this much from g (sin a - mu cos a), or 0 where it should stick (m/s^2)")
+    tip: float = Field(math.pi / 4, gt=0, allow_inf_nan=False,
+                       description="(planar ramp) 'holds' needs a box that should tip or pivot over its downhill "
+                                   "corner to end turned downhill at least this far (rad): 0.785 is half-way to "
+                                   "its next face, which it lies on at 1.571; one that stood reads about 0")
+    stops: float = Field(0.01, gt=0, allow_inf_nan=False,
+                         description="(planar skid) 'holds' allows the box's stopping distance to lie outside "
+                                     "[the model's steps' distance, v^2 / (2 mu g)] by this share of v^2 / (2 mu g)")
 
     @property
     def depth_limit(self) -> float:
@@ -154,7 +167,8 @@ class Verdict:
 def judge(measures: Mapping[str, Any], criteria: Criteria, unjudged: Collection[str] = ()) -> dict[str, Verdict]:
     """The three verdicts of one run from its measures (the column's: ``max_depth``, ``max_gap``,
     ``top_rest_error``, ``boxes``, ``reach``, ``rms_motion``, ``launch``; planar runs may lack some and add
-    ``drift_x``, ``drift_angle``, ``slide_error``, ``rest_contacts``, ``land_tilt``, ``fall_tilt``). A check
+    ``drift_x``, ``drift_angle``, ``slide_error``, ``slide_turn``, ``tip_turn``, ``stop_error``, ``rest_contacts``,
+    ``land_tilt``, ``fall_tilt``). A check
     is made when its measure is there and not in ``unjudged``; a verdict without checks has nothing that could
     fail it and passes."""
     def check(measure: str, limit: float, strict: bool = False, least: bool = False) -> list[Check]:
@@ -168,7 +182,9 @@ def judge(measures: Mapping[str, Any], criteria: Criteria, unjudged: Collection[
         rest = [Check("|top_rest_error|", abs(float(measures["top_rest_error"])), criteria.rest_limit(contacts))]
     holds = (*check("max_depth", criteria.depth_limit), *check("max_gap", criteria.depth_limit), *rest,
              *check("reach", criteria.reach), *check("drift_x", criteria.drift), *check("drift_angle", criteria.turn),
-             *check("slide_error", criteria.slide), *check("land_tilt", criteria.turn),
+             *check("slide_error", criteria.slide), *check("slide_turn", criteria.turn),
+             *check("tip_turn", criteria.tip, least=True),
+             *check("stop_error", criteria.stops), *check("land_tilt", criteria.turn),
              *check("fall_tilt", criteria.fall, least=True))
     return {
         "holds": Verdict("holds", holds),
@@ -196,9 +212,11 @@ def failed_words(verdicts: Mapping[str, Verdict], measures: Mapping[str, Any]) -
 
 
 def states_outcome(scene: Any) -> bool:
-    """Whether a scene states what must hold: boxes placed where they must stay (``rests``), or a ramp whose
-    box must slide or stick as the analytic answer says (``slope``)."""
-    return bool(getattr(scene, "rests", list)()) or getattr(scene, "slope", lambda: None)() is not None
+    """Whether a scene states what must hold: boxes placed where they must stay (``rests``), a ramp whose
+    box must stick, slide, tip or pivot as the statics say (``slope``), or a box that must stop where friction
+    stops it (``stop``)."""
+    return (bool(getattr(scene, "rests", list)()) or getattr(scene, "slope", lambda: None)() is not None
+            or getattr(scene, "stop", lambda: None)() is not None)
 
 
 def run_verdicts(result: RunResult, criteria: Criteria | None) -> tuple[dict[str, Verdict], dict[str, float]] | None:

@@ -95,7 +95,10 @@ DEFINITIONS = {
     "top_p2p": f"peak-to-peak height of the top box over the last {MOTION_WINDOW} steps",
     "planar": "planar cases are judged by the same criteria with the checks that can fail on them: 'holds' "
               "adds drift_x <= criteria.drift and drift_angle <= criteria.turn for the boxes the scene places "
-              "where they should stay, and on a ramp slide_error <= criteria.slide; top_rest_error is judged where "
+              "where they should stay; on a ramp, the outcome statics gives the box (stick, slide, tip over or "
+              "pivot on its downhill corner, from tan(angle), mu and its width/height): slide_error <= criteria.slide and "
+              "slide_turn <= criteria.turn where it sticks or slides, tip_turn >= criteria.tip where it goes over; "
+              "on a skid, stop_error <= criteria.stops; top_rest_error is judged where "
               "a rigid pile gives the top box a rest height (stacks, pyramids, heavy on light), over the contacts "
               "under it (rest_contacts); max_gap is not measured; a box sliding down a ramp is not judged "
               "'settled' (a verdict with nothing to judge reads 'not judged')",
@@ -105,6 +108,12 @@ DEFINITIONS = {
     "slide_error": "(planar ramp) the box's acceleration down the slope, its final velocity along the slope over "
                    "the run's time from rest, minus the analytic answer: 0 where tan(angle) <= mu (it sticks), "
                    "g (sin a - mu cos a) where it slides (m/s^2)",
+    "slide_turn": "(planar ramp) how far a box that sticks or slides flat ended turned from how it started (rad)",
+    "tip_turn": "(planar ramp) how far a box that must tip or pivot over its downhill corner turned downhill (rad): "
+                "about 1.57 once it lies on its next face",
+    "stop_distance": "(planar skid) how far a box given a velocity on flat ground went before it stopped (m)",
+    "stop_error": "(planar skid) how far the stopping distance lies outside the range from the model's stepped "
+                  "distance to v^2 / (2 mu g), as a share of v^2 / (2 mu g); 0 inside it",
     "top_reversals": "(cases with a claim) how many times the top box's step-to-step motion changed direction "
                      f"over the whole run once it rested on something, steps under {STILL:g} m skipped",
     "top_rise": "(cases with a claim) the top box's fastest upward motion from positions, (y_next - y)/dt",

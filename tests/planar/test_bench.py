@@ -29,7 +29,7 @@ def test_bench_runs_planar_cases_end_to_end(cli: Cli, tmp_path: Path) -> None:
                 assert holds == ["max_depth", "reach", "drift_x", "drift_angle", "slide_error"]
                 assert settled == ["rms_motion"]
             else:  # it slides: no drift, no settling, the acceleration against g (sin a - mu cos a)
-                assert holds == ["max_depth", "reach", "slide_error"] and settled == []
+                assert holds == ["max_depth", "reach", "slide_error", "slide_turn"] and settled == []
                 assert abs(r["measures"]["slide_acceleration"] - 9.8 * (0.573576436 - 0.5 * 0.819152044)) < \
                     r["measures"]["slide_error"] + 1e-8
             assert r["criteria"]["never_launched"]["checks"][0]["measure"] == "launch"

@@ -12,10 +12,12 @@ from tests.conftest import CONFIGS
 
 PLANAR = CONFIGS / "planar"
 CASES = ["brick-wall", "card-house", "dominoes", "fast-into-stack", "heavy-on-light-100", "heavy-on-light-1000",
-         "heavy-slab", "pyramid-10", "pyramid-20", "pyramid-drop", "ramp-above", "ramp-below", "ramp-slide",
-         "ramp-stick", "stack-10", "stack-40", "tilted-drop"]
+         "heavy-slab", "pyramid-10", "pyramid-20", "pyramid-drop", "ramp-above", "ramp-below", "ramp-pivot",
+         "ramp-slide", "ramp-slide-tall", "ramp-stick", "ramp-tip", "skid", "stack-10", "stack-40", "tilted-drop"]
 SHORT = {"ramp-slide": 120, "ramp-above": 120, "tilted-drop": 180, "pyramid-drop": 240, "dominoes": 480,
-         "brick-wall": 300}  # the cases judged before 10 s: a slide, a landing, an impact, a fall, a wall
+         "brick-wall": 300, "ramp-tip": 180, "ramp-pivot": 180, "ramp-slide-tall": 120,
+         "skid": 120}
+# the cases judged before 10 s: a slide, a landing, an impact, a fall, a wall, a box going over, a skid
 
 
 def _run(name: str):  # type: ignore[no-untyped-def]

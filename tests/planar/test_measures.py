@@ -102,7 +102,7 @@ def test_a_ramp_is_judged_on_its_slide_and_a_sliding_box_is_not_judged_settled()
     verdicts = judge({**found, "max_depth": 0.0, "reach": 0.0, "rms_motion": 2.4, "launch": 0.0}, Criteria(),
                      measures.unjudged(scene))
     assert verdicts["settled"].checks == () and verdicts["settled"].passed
-    assert [c.measure for c in verdicts["holds"].checks] == ["max_depth", "reach", "slide_error"]
+    assert [c.measure for c in verdicts["holds"].checks] == ["max_depth", "reach", "slide_error", "slide_turn"]
     late = judge({**found, "slide_error": 0.01, "max_depth": 0.0, "reach": 0.0, "rms_motion": 2.4, "launch": 0.0},
                  Criteria(), ())
     assert not late["holds"].passed and not late["settled"].passed  # a box made to settle would fail it

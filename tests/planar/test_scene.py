@@ -184,4 +184,4 @@ def test_a_scene_without_boxes_is_refused(tmp_path: Path) -> None:
     with pytest.raises(ConfigError) as caught:
         api.load(config)
     assert str(caught.value) == (f"{config}:2:3: scene: no boxes: list 'boxes' or give a generator "
-                                 "(ramp, stack, pyramid, card_house, heavy_on_light, dominoes, wall)")
+                                 "(ramp, stack, pyramid, card_house, heavy_on_light, dominoes, wall, skid)")

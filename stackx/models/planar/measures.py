@@ -6,7 +6,8 @@ how far a box ever got into another (``reach``), the fastest launch, and the RMS
 
 The bench adds what needs the scene: which boxes were placed where they should stay (their **drift**: how far
 they moved sideways, ``drift_x``, and turned, ``drift_angle``, from the start to the end), where the top of a
-rigid pile would be (``top_rest_error``), the ramp's analytic answer (``slide_error``), and how the boxes
+rigid pile would be (``top_rest_error``), the ramp's analytic answer (``slide_error`` where the box sticks or
+slides, ``tip_turn`` where it tips or pivots), where a skidding box stopped (``stop_error``), and how the boxes
 that should end on a face or fallen ended (``land_tilt``, ``fall_tilt``). Every measure is
 deterministic.
 """
@@ -158,13 +159,29 @@ def slide(end: PlanarState, box: int, angle: float, expected: float, time: float
     return {"slide_acceleration": measured, "slide_error": abs(measured - expected)}
 
 
+def tipped(start: PlanarState, end: PlanarState, box: int) -> dict[str, float]:
+    """How far a ramp box that should go over its downhill corner turned (row 0): ``tip_turn``, its final angle
+    minus its starting one (rad, counter-clockwise, which is downhill: the slope falls towards -x). Lying on its
+    next face it reads pi/2; a box that stayed on its base reads about 0, one that fell uphill reads negative."""
+    return {"tip_turn": float(end.angle[0, box] - start.angle[0, box])}
+
+
+def stopped(start: PlanarState, end: PlanarState, box: int, shortest: float, longest: float) -> dict[str, float]:
+    """Where a skidding box stopped (row 0): ``stop_distance``, how far it went along x from its start (m), and
+    ``stop_error``, how far that lies outside [``shortest``, ``longest``] as a share of ``longest`` (0 inside):
+    the distance of the model's own steps and v^2 / (2 mu g), between which every step size lands."""
+    distance = float(end.x[0, box] - start.x[0, box])
+    return {"stop_distance": distance, "stop_error": max(shortest - distance, distance - longest, 0.0) / longest}
+
+
 def bench_measures(result: RunResult) -> dict[str, float]:
     """What the bench's criteria read beyond the run's measures, from the scene: ``boxes``; ``drift_x`` and
     ``drift_angle`` where boxes should rest; ``top_rest_error`` (final height of the pile's top box minus its
-    height on rigid boxes, negative when the pile sank), ``rest_contacts`` (contacts under it) and
-    ``top_p2p`` (its peak-to-peak height over the final window) where the scene is one pile;
-    ``slide_acceleration`` / ``slide_error`` on a ramp; ``land_tilt`` and ``fall_tilt`` where boxes should
-    end on a face or fallen."""
+    height on rigid boxes, negative when the pile sank), ``rest_contacts`` (contacts under it) and ``top_p2p``
+    (its peak-to-peak height over the final window) where the scene is one pile; ``slide_acceleration`` /
+    ``slide_error`` on a ramp whose box sticks or slides (and ``slide_turn``, how far a sliding one turned,
+    rad), ``tip_turn`` on one whose box tips or pivots; ``stop_distance`` / ``stop_error`` on a skid;
+    ``land_tilt`` and ``fall_tilt`` where boxes should end on a face or fallen."""
     scene, final, steps = result.spec.scene, result.final, result.spec.steps
     out: dict[str, float] = {"boxes": float(final.bodies)}
     start = scene.build()
@@ -177,13 +194,22 @@ def bench_measures(result: RunResult) -> dict[str, float]:
         out.update({"top_rest_error": float(final.y[0, body]) - height, "rest_contacts": float(contacts_below),
                     "top_p2p": max(tops) - min(tops)})
     slope = scene.slope()
-    if slope is not None:
+    if slope is not None and slope.turns_over:
+        out.update(tipped(start, final, slope.box))
+    elif slope is not None:
         out.update(slide(final, slope.box, slope.angle, slope.acceleration(result.spec.gravity),
                          steps * result.spec.dt))
+        if not slope.sticks:  # not placed at rest, so drift does not see it turn: it must slide flat
+            out["slide_turn"] = float(abs(final.angle[0, slope.box] - start.angle[0, slope.box]))
+    stop = getattr(scene, "stop", lambda: None)()
+    if stop is not None:
+        gravity = result.spec.gravity
+        out.update(stopped(start, final, stop.box, stop.stepped(gravity, result.spec.dt), stop.distance(gravity)))
     return out
 
 
 def unjudged(scene: Any) -> tuple[str, ...]:
-    """Measures whose check cannot pass or fail on this scene: a box sliding down a ramp never settles."""
+    """Measures whose check cannot pass or fail on this scene: a box sliding down a ramp never settles, and
+    where one that goes over its corner ends up is not stated (it may land and stay, or tumble on)."""
     slope = getattr(scene, "slope", lambda: None)()
     return ("rms_motion",) if slope is not None and not slope.sticks else ()
