@@ -33,7 +33,7 @@ MANGLED = re.compile(r"(\d+)")
 
 def readable(symbol: str) -> str:
     """A numba function's mangled symbol (``_ZN6stackx6models6planar6banded6factorB3v48...``) as its dotted
-    path (``stackx.models.planar.banded.factor``); other symbols as they are."""
+    path (``stackx.solvers.planar.banded.factor``); other symbols as they are."""
     if not symbol.startswith("_ZN"):
         return symbol
     parts, at = [], 3

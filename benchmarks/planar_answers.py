@@ -30,10 +30,10 @@ def compare(path: str, steps: int, solver: str, knob: int | None) -> dict[str, A
     from benchmarks.planar_reference import load_run
     from stackx.bench.criteria import Criteria
     from stackx.kernel import compiled
-    from stackx.models.planar import reference, step_problem
-    from stackx.models.planar.error import StepLog, box_speeds
+    from stackx.solvers.planar import reference, step_problem
+    from stackx.bench.error_planar import StepLog, box_speeds
     from stackx.models.planar.measures import half_diagonal
-    from stackx.models.planar.problem import ContactProblem
+    from stackx.solvers.planar.problem import ContactProblem
     from stackx.run.runner import run_experiment
 
     spec = load_run(path, steps, solver, knob)

@@ -1,4 +1,4 @@
-"""``python -m benchmarks.planar_banded``: the reference's band LU (``stackx.models.planar.banded``) against
+"""``python -m benchmarks.planar_banded``: the reference's band LU (``stackx.solvers.planar.banded``) against
 LAPACK's (``dgbtrf``, ``dgbtrs`` through scipy: the same algorithm, row pivoting within the band, in the same
 storage) and SuperLU (``scipy.sparse.linalg.splu``, a general sparse LU) on the same matrices, side by side.
 
@@ -22,10 +22,10 @@ import numpy as np
 from benchmarks.planar_pivoting import recorded
 from benchmarks.timing import Prepared, interleaved
 from stackx.kernel import compiled
-from stackx.models.planar import banded
-from stackx.models.planar.interior import central_path
-from stackx.models.planar.problem import ContactProblem, effective_masses
-from stackx.models.planar.reference import ModeSystem
+from stackx.solvers.planar import banded
+from stackx.solvers.planar.interior import central_path
+from stackx.solvers.planar.problem import ContactProblem, effective_masses
+from stackx.solvers.planar.reference import ModeSystem
 
 SOLVES = 20  # solves per timed span (one takes tens of µs)
 

@@ -1,4 +1,4 @@
-"""``python -m benchmarks.planar_pivoting``: what Lemke's walk (``stackx.models.planar.pivoting``) costs on
+"""``python -m benchmarks.planar_pivoting``: what Lemke's walk (``stackx.solvers.planar.pivoting``) costs on
 recorded step problems, and what of the reference solve lands them.
 
 Per problem: its points; the walks ``pivoting.starts`` makes (``pivoting.plans``: on the problem's own LCP up to
@@ -22,8 +22,8 @@ from pathlib import Path
 
 import numpy as np
 
-from stackx.models.planar import pivoting, reference
-from stackx.models.planar.problem import ContactProblem, residual
+from stackx.solvers.planar import pivoting, reference
+from stackx.solvers.planar.problem import ContactProblem, residual
 
 DATA = Path(__file__).resolve().parent.parent / "tests" / "planar" / "data"
 FIELDS = ("inv_mass", "inv_inertia", "velocity", "body_a", "body_b", "normal", "ra", "rb", "friction", "target")

@@ -1,7 +1,7 @@
 """``python -m benchmarks.planar_reference``: what the planar reference solve costs per step, and which
 steps it cannot solve.
 
-The bench solves one reference problem per step of every planar run (``stackx.models.planar.error``), so its
+The bench solves one reference problem per step of every planar run (``stackx.bench.error_planar``), so its
 cost decides how long a planar bench takes, and a step it cannot solve is a gap in the measurement. By
 default, for pyramids of 10 and 20 rows (the scene's ``pyramid`` generator), two runs of ``steps`` steps:
 ``planar-exact`` (a pile held at rest: the reference's own path) and ``planar-pgs`` at 10 iterations (a pile
@@ -13,10 +13,10 @@ own solve too) and their sum (what the run's reference solves add to a bench), N
 solved step, and the steps the reference could not solve of those the step log watched, the seconds their
 solves took (``failed s``: on a pile the reference cannot follow, most of what the run costs), the run's RMS
 error; the step log's whole cost per step (``log ms``: the reference solve, the monitors and the check of
-the solver's own answer) and, of it, that check alone (``own us``: ``stackx.models.planar.error.check_own``,
+the solver's own answer) and, of it, that check alone (``own us``: ``stackx.bench.error_planar.check_own``,
 from velocities and, for a solver that exposes them, impulses); per pyramid, the ratio of the median solve on
 the sagging path to that on the held path, both measured in this one run. ``--proximal D`` solves with another proximal weight
-(``stackx.models.planar.reference.PROXIMAL``), to see what it trades.
+(``stackx.solvers.planar.reference.PROXIMAL``), to see what it trades.
 
 ``--bench CONFIG`` instead times a whole ``stackx bench CONFIG`` end to end in this one process (every
 planar solver at every knob value, the timings, the report written to a temporary folder), with every run's
@@ -25,7 +25,7 @@ bench takes about ``config steps / N`` times as long on a pile that stays as bus
 wall time and the step log's share of it, then per run its steps and, per step, the reference solve
 (``ref ms``), the step log's whole cost (``log ms``: the run's own reference solves and checks, and its
 share of the batch's monitors), the check of its own answer (``own us``: velocities and, for a solver
-that exposes them, impulses; ``stackx.models.planar.error.check_own``), and the steps it could not solve with the
+that exposes them, impulses; ``stackx.bench.error_planar.check_own``), and the steps it could not solve with the
 seconds their solves took (``failed s``); then the solved steps by what landed them (``Solution.attempt``: the
 central path, a warm start's Newton rounds, the fallback's proximal point method or Lemke's pivoting).
 Measured on 2 cores with ``--bench configs/planar/pyramid-10.yaml`` (21 runs of 600 steps) beside another bench:
@@ -52,10 +52,10 @@ from stackx.bench.plan import CASE, load_case
 from stackx.config.experiment import load
 from stackx.bench.criteria import Criteria
 from stackx.kernel import compiled
-from stackx.models.planar import error as planar_log
-from stackx.models.planar import reference, step_problem
-from stackx.models.planar.reference import DOUBT, LEMKE, PATH, WALK, WARM
-from stackx.models.planar.error import StepLog
+from stackx.bench import error_planar as planar_log
+from stackx.solvers.planar import reference, step_problem
+from stackx.solvers.planar.reference import DOUBT, LEMKE, PATH, WALK, WARM
+from stackx.bench.error_planar import StepLog
 from stackx.run.runner import run_experiment
 
 
@@ -142,8 +142,8 @@ def measure(path: str, steps: int, solver: str, knob: int | None) -> dict[str, f
 def warm_up_checks() -> None:
     """Load (or compile) the own-answer check's kernels before anything is timed, as the runner's warm-up
     does for a solver's: the first check of a process would otherwise carry it."""
-    from stackx.models.planar.conditions import approach, matched, violations
-    from stackx.models.planar.step_problem import step_problem
+    from stackx.solvers.planar.conditions import approach, matched, violations
+    from stackx.solvers.planar.step_problem import step_problem
     from stackx.models.planar.state import PlanarState
 
     one = np.array([[1.0]])

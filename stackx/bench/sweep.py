@@ -1,9 +1,10 @@
 """Run a bench case: every plan's knob values as one batched run per solver, then timings and errors.
 
 The measures come from the batched run (the runner puts the same solver and shape in one batch), watched at
-every step by the model's step log (the column's: ``stackx.models.column.error``). Time per step cannot be split between the rows of a batch, so it is
-measured apart: short runs of one row from the scene's start, repeated, the median kept. A batch that blows
-up is run again row by row, so that one unstable knob value is a failing record and not a lost solver.
+every step by the model's step log (``stackx.bench.step_logs``; the column's: ``stackx.bench.error_column``).
+Time per step cannot be split between the rows of a batch, so it is measured apart: short runs of one row from
+the scene's start, repeated, the median kept. A batch that blows up is run again row by row, so that one
+unstable knob value is a failing record and not a lost solver.
 
 A run whose boxes passed through each other is **crushed**: its criteria are judged (it fails "holds" by
 reach), but its depths, heights and errors describe no column, so tables, plots, fronts and winners leave
@@ -18,6 +19,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from stackx.bench.plan import CASE, Case, SolverPlan
+from stackx.bench.step_logs import step_log
 from stackx.bench.timing import one_thread, time_run
 from stackx.bench.trajectory import SeriesLog, Trajectory
 from stackx.bench.criteria import NAMES, judge, passed
@@ -128,7 +130,7 @@ def run_plan(case: Case, plan: SolverPlan, progress: Progress | None = None) -> 
         experiment = Plan(whole.file, whole.name, whole.description, specs, whole.limits)
         return {r.name: r for r in run_experiment(experiment, report, log, record).runs}
 
-    log = case.run.model.step_log(case.section.criteria)
+    log = step_log(case.run.model, case.section.criteria)
     watched = SeriesLog(log)  # the step log, if the model has one, and the series against time
     try:
         results = run([r for _, _, r in runs], watched, progress)

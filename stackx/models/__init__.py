@@ -107,5 +107,6 @@ class Model:
     @classmethod
     def step_log(cls, criteria: Any) -> Any:
         """A ``stackx.run.runner.StepObserver`` measuring every step against ``reference``, or None when the model
-        has no reference: its runs then carry no error figures."""
+        has no reference: its runs then carry no error figures. The bench measures the built-in models itself
+        (``stackx.bench.step_logs``); a model plugin gives its own here."""
         return None

@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from stackx.models.planar.problem import ContactProblem, residual
+from stackx.solvers.planar.problem import ContactProblem, residual
 from tests.planar.test_pivoting import FIELDS
 from tests.planar.test_reference import _jacobian
 
@@ -85,7 +85,7 @@ def test_lemke_s_walk_covered_by_the_step_s_approach_lands_the_step_on_a_fourth_
     falling, no basis met twice); covered by the step's approach (``pivoting.approach_cover``) it ends within
     1e-6 m/s, and Newton's rounds and the proximal point method land from there, on an answer of the conditions
     whose velocities lie more than 1e-2 m/s from each of the three above."""
-    from stackx.models.planar import pivoting, reference
+    from stackx.solvers.planar import pivoting, reference
 
     p, answers = _step()
     data = np.load(Path(__file__).parent / "data" / "xpbd_pyramid20_answers_step.npz")

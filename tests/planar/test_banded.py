@@ -1,4 +1,4 @@
-"""The band LU of the reference's systems (``stackx.models.planar.banded``) against dense numpy, plain and
+"""The band LU of the reference's systems (``stackx.solvers.planar.banded``) against dense numpy, plain and
 compiled: the order's band holds every entry, the assembly is the dense sum, and the factors solve it."""
 
 from __future__ import annotations
@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from stackx.kernel import compiled
-from stackx.models.planar import banded
+from stackx.solvers.planar import banded
 from tests.planar.test_mode_rows import rows
 
 

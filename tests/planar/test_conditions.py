@@ -6,10 +6,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from stackx.models.planar.conditions import approach, violations
-from stackx.models.planar.problem import ContactProblem
-from stackx.models.planar.reference import solve
-from stackx.models.planar.step_problem import step_problem
+from stackx.solvers.planar.conditions import approach, violations
+from stackx.solvers.planar.problem import ContactProblem
+from stackx.solvers.planar.reference import solve
+from stackx.solvers.planar.step_problem import step_problem
 from tests.planar.hand_states import pyramid
 
 

@@ -1,4 +1,4 @@
-"""Lemke's walk on the points whose mode is in doubt (``stackx.models.planar.doubt``), on a recorded step of a
+"""Lemke's walk on the points whose mode is in doubt (``stackx.solvers.planar.doubt``), on a recorded step of a
 toppling 20-row pyramid (``planar-xpbd`` at 4 substeps, 866 points, 210 boxes;
 ``data/xpbd_pyramid20_doubt_step.npz``, with the impulses the bench started the reference from) that the
 reference's paths and its proximal point method miss, and Lemke's walks on the whole problem too (measured:
@@ -9,8 +9,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from stackx.models.planar import doubt, pivoting, reference
-from stackx.models.planar.problem import ContactProblem, effective_masses, residual
+from stackx.solvers.planar import doubt, pivoting, reference
+from stackx.solvers.planar.problem import ContactProblem, effective_masses, residual
 from tests.planar.test_answers import _worst_violation
 from tests.planar.test_pivoting import _recorded_npz
 from tests.planar.test_reference import _jacobian

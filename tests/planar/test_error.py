@@ -13,7 +13,7 @@ import pytest
 
 from stackx.config.experiment import load
 from stackx.bench.criteria import Criteria
-from stackx.models.planar.error import BatchLog, RowLog, StepLog, log_step
+from stackx.bench.error_planar import BatchLog, RowLog, StepLog, log_step
 from stackx.registry import solvers
 from stackx.run.runner import run_experiment
 from tests.planar.hand_states import boxes

@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 from stackx.kernel import compiled
-from stackx.models.planar import step_problem
-from stackx.models.planar.reference import ReferenceFailure
+from stackx.solvers.planar import step_problem
+from stackx.solvers.planar.reference import ReferenceFailure
 from stackx.solvers.planar.exact import PlanarExact, PlanarExactParams
 from tests.planar.hand_states import pyramid, ramp
 
@@ -61,7 +61,7 @@ def test_plain_and_compiled_steps_agree_to_the_bit() -> None:
 
 def test_a_step_the_reference_cannot_solve_keeps_the_closest_answer_and_is_counted(monkeypatch) -> None:
     from stackx.models.planar.measures import state_measures
-    from stackx.models.planar.problem import residual, velocities_after
+    from stackx.solvers.planar.problem import residual, velocities_after
 
     seen = []
 

@@ -1,4 +1,4 @@
-"""The interior point stage of the planar reference (``stackx.models.planar.interior``): against brute force
+"""The interior point stage of the planar reference (``stackx.solvers.planar.interior``): against brute force
 where the answer is unique, and on recorded steps that only the later tries of the reference could land."""
 
 from __future__ import annotations
@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 
 from stackx.kernel import compiled
-from stackx.models.planar import interior, reference
-from stackx.models.planar.problem import effective_masses, residual, velocities_after
-from stackx.models.planar.step_problem import ReferenceStep
+from stackx.solvers.planar import interior, reference
+from stackx.solvers.planar.problem import effective_masses, residual, velocities_after
+from stackx.solvers.planar.step_problem import ReferenceStep
 from tests.planar.hand_states import pyramid
 from tests.planar.test_own_answer import plain_conditions
 from tests.planar.test_pivoting import _recorded_npz

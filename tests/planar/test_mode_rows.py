@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from stackx.kernel import compiled
-from stackx.models.planar import banded, mode_rows
+from stackx.solvers.planar import banded, mode_rows
 
 
 def rows(rng: np.random.Generator, count: int, dof: int) -> tuple[np.ndarray, np.ndarray]:

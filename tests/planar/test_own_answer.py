@@ -1,6 +1,6 @@
 """A solver's own answer checked without the reference: the impulses each planar solver says its step applied
 are the ones that give its stored velocities, and the step log's figures for them are the contact conditions
-worked point by point in plain Python from their definitions (``stackx.models.planar.problem``): 0 for an
+worked point by point in plain Python from their definitions (``stackx.solvers.planar.problem``): 0 for an
 exact answer, the expected violation for a wrong one."""
 
 from __future__ import annotations
@@ -15,9 +15,9 @@ import pytest
 
 from stackx.bench.criteria import Criteria
 from stackx.config.experiment import load
-from stackx.models.planar.conditions import matched
-from stackx.models.planar.error import BatchLog, RowLog, StepLog, log_step
-from stackx.models.planar.problem import ContactProblem
+from stackx.solvers.planar.conditions import matched
+from stackx.bench.error_planar import BatchLog, RowLog, StepLog, log_step
+from stackx.solvers.planar.problem import ContactProblem
 from stackx.registry import solvers
 from stackx.run.runner import run_experiment
 from stackx.solvers.planar.base import StepImpulses

@@ -11,9 +11,9 @@ import numpy as np
 import pytest
 from scipy import sparse
 
-from stackx.models.planar import pivoting, reference
-from stackx.models.planar.pivoting import RayEnd, contact_lcp, walk
-from stackx.models.planar.problem import (ContactProblem, effective_masses, relative_velocities, residual,
+from stackx.solvers.planar import pivoting, reference
+from stackx.solvers.planar.pivoting import RayEnd, contact_lcp, walk
+from stackx.solvers.planar.problem import (ContactProblem, effective_masses, relative_velocities, residual,
                                           velocities_after)
 from tests.planar.test_reference import brute_force, random_problem
 

@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from stackx.models.planar.problem import ContactProblem, effective_masses, residual, velocities_after
+from stackx.solvers.planar.problem import ContactProblem, effective_masses, residual, velocities_after
 
 G_DT = 9.8 / 60.0  # speed gravity adds in a step of 1/60 s
 

@@ -14,10 +14,10 @@ import numpy as np
 import pytest
 
 from stackx.kernel import compiled
-from stackx.models.planar import reference
-from stackx.models.planar.problem import ContactProblem, effective_masses, residual, velocities_after
-from stackx.models.planar.reference import ModeSystem, ReferenceFailure, project_sweeps, solve
-from stackx.models.planar.step_problem import ReferenceStep, step_problem
+from stackx.solvers.planar import reference
+from stackx.solvers.planar.problem import ContactProblem, effective_masses, residual, velocities_after
+from stackx.solvers.planar.reference import ModeSystem, ReferenceFailure, project_sweeps, solve
+from stackx.solvers.planar.step_problem import ReferenceStep, step_problem
 from tests.planar.hand_states import boxes, pyramid
 
 TOL = 1e-9
@@ -167,7 +167,7 @@ def test_a_tall_stack_is_held_still_by_the_path_and_by_the_fallback_alone() -> N
 
 
 def test_a_solve_that_does_not_get_there_says_so(monkeypatch: pytest.MonkeyPatch) -> None:
-    from stackx.models.planar import pivoting
+    from stackx.solvers.planar import pivoting
 
     p = step_problem(pyramid(6, jitter=0.05, seed=1), 0, -9.8, 1 / 60, 0.02)
     monkeypatch.setattr(pivoting, "starts", lambda problem: iter(()))  # pivoting would solve it
@@ -241,7 +241,7 @@ def test_which_point_of_a_face_slides_is_tried_not_guessed(monkeypatch: pytest.M
     # nearly the same 1e-8 m/s; making the one that slips a hair more slide sent Newton off, and only Lemke's
     # pivoting solved the step. Trying both and keeping the one whose round lands lower solves it by Newton.
     (p, pn, pt), = _recorded("trembling_stack_step")
-    from stackx.models.planar import pivoting
+    from stackx.solvers.planar import pivoting
 
     monkeypatch.setattr(pivoting, "starts", lambda problem: iter(()))
     sol = solve(p, pn, pt)
@@ -290,7 +290,7 @@ def test_a_pile_of_hair_gaps_is_solved_by_the_path_and_by_the_proximal_point_met
 
 
 def test_a_quick_solve_makes_no_walk_on_the_whole_problem(monkeypatch: pytest.MonkeyPatch) -> None:
-    from stackx.models.planar import pivoting
+    from stackx.solvers.planar import pivoting
 
     (p, pn, pt), = _recorded("xpbd_pyramid_step")
     assert solve(p, pn, pt, quick=True, interior=False).attempt == reference.WALK
@@ -310,7 +310,7 @@ def test_a_loop_of_held_faces_whose_targets_disagree_by_a_hair_is_solved(monkeyp
     # whose targets disagree by a few 1e-10 m/s; the exact answer has a point of the loop sliding. The path lands
     # it; without the path, the proximal point method stalls just above the tolerance, the error shared out
     # around the loop, and Lemke's pivoting lands it
-    from stackx.models.planar import pivoting
+    from stackx.solvers.planar import pivoting
 
     (p, pn, pt), = _recorded("xpbd_pyramid_loop_step")
     assert solve(p, pn, pt).attempt == reference.PATH
@@ -334,7 +334,7 @@ def _solve_steps(reference: ReferenceStep, row: int, steps: int) -> None:
 
 
 def test_after_three_failed_steps_in_a_row_a_row_s_solves_are_quick(monkeypatch: pytest.MonkeyPatch) -> None:
-    from stackx.models.planar import step_problem as sp
+    from stackx.solvers.planar import step_problem as sp
 
     asked: list[bool] = []
     # the best residual each solve reaches: above the tolerance it fails; a near miss (5e-10) is not counted
@@ -370,7 +370,7 @@ def test_the_fallback_s_newton_rounds_follow_a_drift(monkeypatch: pytest.MonkeyP
     # loop whose targets disagree), whose proximal steps settle into a steady drift; followed until a held point
     # is emptied, the rounds land. Without the drift followed, Lemke's walk covered by the step's approach lands
     # it (on the problem's own LCP, on the answer itself); without both, nothing does (1.8e-9 m/s)
-    from stackx.models.planar import pivoting
+    from stackx.solvers.planar import pivoting
     from tests.planar.test_pivoting import _recorded_npz
 
     p, pn, pt = _recorded_npz("xpbd_pyramid10_drift_step")

@@ -26,8 +26,8 @@ import subprocess
 import numpy as np
 import pytest
 
-from stackx.models.planar.problem import ContactProblem, residual
-from stackx.models.planar.reference import solve
+from stackx.solvers.planar.problem import ContactProblem, residual
+from stackx.solvers.planar.reference import solve
 from tests.planar.test_reference import _jacobian, _recorded
 from tests.limits import hang_limit
 

@@ -13,9 +13,9 @@ from benchmarks.perf_map import readable, write_map
 
 
 def test_a_numba_symbol_reads_as_its_module_path() -> None:
-    symbol = ("_ZN6stackx6models6planar6banded6factorB3v48B44c8tJTIeFIjxB2IKSgI4CrvQCk0Z4yRYcWsBAK4JIagIAE"
+    symbol = ("_ZN6stackx7solvers6planar6banded6factorB3v48B44c8tJTIeFIjxB2IKSgI4CrvQCk0Z4yRYcWsBAK4JIagIAE"
               "5ArrayIdLi2E1C7mutable7alignedE")
-    assert readable(symbol) == "stackx.models.planar.banded.factor"
+    assert readable(symbol) == "stackx.solvers.planar.banded.factor"
     assert readable("__sincos_fma") == "__sincos_fma"  # not numba's: as it is
 
 

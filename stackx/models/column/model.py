@@ -1,4 +1,5 @@
-"""The column as a model plugin: its state, measures, health check and the bench's reference."""
+"""The column as a model plugin: its state, measures, health check and the bench's reference solver (the
+bench's every-step log against it is ``stackx.bench.error_column``)."""
 
 from __future__ import annotations
 
@@ -59,9 +60,3 @@ class Column(Model):
         if every_step:
             extra.update(measures.top_motion(result))
         return extra
-
-    @classmethod
-    def step_log(cls, criteria: Any) -> Any:
-        from stackx.models.column.error import StepLog
-
-        return StepLog(criteria)

@@ -1,4 +1,5 @@
-"""The planar model as a plugin: its state, measures, health check and the bench's reference."""
+"""The planar model as a plugin: its state, measures, health check and the bench's reference solver (the
+bench's every-step log against it is ``stackx.bench.error_planar``)."""
 
 from __future__ import annotations
 
@@ -75,10 +76,3 @@ class Planar(Model):
     @classmethod
     def unjudged(cls, run: RunSpec) -> tuple[str, ...]:
         return measures.unjudged(run.scene)
-
-    @classmethod
-    def step_log(cls, criteria: Any) -> Any:
-        """Every step against ``planar-exact``'s solve of the same problem (``stackx.models.planar.error``)."""
-        from stackx.models.planar.error import StepLog
-
-        return StepLog(criteria)

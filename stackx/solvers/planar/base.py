@@ -3,7 +3,7 @@ impulses carried between steps for warm starting, and the impulses a step applie
 
 **A step's own answer.** ``PlanarSolver.step_impulses(b)`` gives the impulses row ``b``'s last step applied
 at each contact point (``StepImpulses``), keyed by ``(A, B, FEATURE)`` as the contact table keys them, so
-the bench can check them against the step's contact conditions (``stackx.models.planar.conditions``)
+the bench can check them against the step's contact conditions (``stackx.solvers.planar.conditions``)
 without a reference. What "applied" means is each solver's to say: for a solver with one velocity solve a
 step, that solve's accumulated impulses; for one that takes substeps at fixed anchors, their sum over the
 substeps. None (the default) says the solver has no impulses that give its velocities (XPBD, engines): the

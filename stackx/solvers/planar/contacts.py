@@ -65,7 +65,7 @@ from stackx.kernel import inlined, kernel, leaf
 from stackx.models.planar.collide import collide, collide_near
 from stackx.models.planar.monitor import observe, observe_points
 from stackx.models.touch import TOUCH_GAP
-from stackx.solvers.planar.columns import (A, B, COLUMNS, CONDITIONED, DEPTH, FEATURE, K11, K12, K22, KN, KT,  # noqa: F401
+from stackx.models.planar.layout import (A, B, COLUMNS, CONDITIONED, DEPTH, FEATURE, K11, K12, K22, KN, KT,  # noqa: F401
                                            LFX, LFY, LNX, LNY, LQX, LQY, MU, NX, NY, PN, PT, PX, PY, RAX, RAY,
                                            RBX, RBY, TARGET)
 from stackx.solvers.planar.wavefront import manifold_end, manifold_order

@@ -5,7 +5,7 @@ One step of one world:
 2. the contact points within ``speculative`` of touching, with targets (0 for a touching point, ``-gap/dt``
    for one still apart), anchors, effective masses and friction (``stackx.solvers.planar.contacts``);
 3. the velocity problem solved to a residual below 1e-10 m/s by the reference solve
-   (``stackx.models.planar.reference``: Gauss-Seidel for the active set, then Newton on it), starting from
+   (``stackx.solvers.planar.reference``: Gauss-Seidel for the active set, then Newton on it), starting from
    the impulses the same points carried in the last step. A step it does not solve to that tolerance keeps
    the closest answer the solve found and goes on: the run is the user's, and one hard step must not end
    it. Such steps are counted in the state (``unsolved``, with the first of them and the largest residual
@@ -15,7 +15,7 @@ One step of one world:
 5. the lab's position correction (slop, percent) on the points that overlap after the move.
 
 Steps 1, 2, 4 and 5 are compiled kernels; the solve's linear algebra (the central path's iterations, each
-mode system's band LU and its proximal steps: ``stackx.models.planar.banded``) is compiled too, the choice of
+mode system's band LU and its proximal steps: ``stackx.solvers.planar.banded``) is compiled too, the choice of
 its stages numpy. The solver's only knobs say which problem it sets itself (``speculative``) and how overlap is
 undone (``correction``); the solve has no knob: it is exact or it fails.
 """
@@ -27,9 +27,9 @@ from pydantic import BaseModel, ConfigDict, Field, field_validator
 
 from stackx.kernel import kernel
 from stackx.models.planar.monitor import contact_room, observe
-from stackx.models.planar.reference import ReferenceFailure
+from stackx.solvers.planar.reference import ReferenceFailure
 from stackx.models.planar.state import PlanarState
-from stackx.models.planar.step_problem import ReferenceStep
+from stackx.solvers.planar.step_problem import ReferenceStep
 from stackx.registry import solvers
 from stackx.solvers.base import Correction, LabCorrection
 from stackx.solvers.contacts import speculative_field

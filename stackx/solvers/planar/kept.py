@@ -23,7 +23,7 @@ from __future__ import annotations
 import numpy as np
 
 from stackx.kernel import leaf
-from stackx.solvers.planar.columns import A, B, DEPTH, FEATURE, NX
+from stackx.models.planar.layout import A, B, DEPTH, FEATURE, NX
 
 # a row's table of points, besides its ids: a contact table's first columns, the ones ``collide`` fills
 POINT_COLUMNS = DEPTH + 1

@@ -46,7 +46,7 @@ import math
 import numpy as np
 
 from stackx.kernel import inlined, kernel, leaf
-from stackx.solvers.planar.columns import A, B, DEPTH, FEATURE, NX, NY, PN, PT, PX, PY
+from stackx.models.planar.layout import A, B, DEPTH, FEATURE, NX, NY, PN, PT, PX, PY
 from stackx.solvers.planar.contacts import BLOCK_CONDITION, effective_mass, gravity, recall, two_point_lcp
 from stackx.solvers.planar.wavefront import manifold_starts, sort_by_group
 

@@ -19,7 +19,7 @@ from __future__ import annotations
 import numpy as np
 
 from stackx.kernel import kernel, leaf
-from stackx.solvers.planar.columns import A, B
+from stackx.models.planar.layout import A, B
 
 
 @leaf

@@ -339,7 +339,7 @@ class PlanarXPBD(PlanarSolver):
     def step_impulses(self, b: int) -> StepImpulses | None:
         """None: XPBD's velocities are its positions' motion over the last substep, pushed at anchors that turn
         with their bodies; no impulses on the step's contact problem give them, so the bench checks what
-        its velocities alone show (``stackx.models.planar.conditions.approach``)."""
+        its velocities alone show (``stackx.solvers.planar.conditions.approach``)."""
         return None
 
     def advance(self, state: PlanarState, steps: int) -> None:

@@ -1,5 +1,5 @@
 """Lemke's complementary pivoting on a step's contact problem, sparse and revised: the reference solve's
-(``stackx.models.planar.reference``) way out when its Newton rounds cycle between mode combinations.
+(``stackx.solvers.planar.reference``) way out when its Newton rounds cycle between mode combinations.
 
 **Why a pivoting method at all.** The reference's Newton rounds read each point's mode (separating,
 sticking, sliding either way) off the current answer. On a step where many points change mode at once (a box
@@ -16,7 +16,7 @@ cycle (in exact arithmetic, its ties broken) and ends on a solution for the clas
   ``ut = beta``; sticking (``ut = 0``) leaves both free;
 - ``cone qn - qt+ - qt-``: the slip speed is positive only with friction at its bound.
 
-These are exactly the contract's conditions (``stackx.models.planar.problem``): the normal's complementarity
+These are exactly the contract's conditions (``stackx.solvers.planar.problem``): the normal's complementarity
 and the 2D friction box with maximal dissipation. Impulses are scaled, ``q = p / k`` (m/s, as
 ``reference.ModeSystem`` keeps them), so every entry of ``M`` is of order 1; ``M`` is never dense: its blocks
 are the sparse Delassus matrix ``W = J M^-1 J^T`` (a pile's point meets the points of its two boxes only).
@@ -82,7 +82,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from stackx.kernel import compiled, enabled, kernel
-from stackx.models.planar.problem import ContactProblem, effective_masses, inverse_masses, jacobian
+from stackx.solvers.planar.problem import ContactProblem, effective_masses, inverse_masses, jacobian
 
 REFACTOR = 200  # pivots between fresh LU factorizations of the basis (each pivot adds one eta)
 PIVOTS = 12  # most pivots per unknown before a walk gives up

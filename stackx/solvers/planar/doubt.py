@@ -1,5 +1,5 @@
 """Lemke's walk on the points whose mode is in doubt, the points that clearly stick held rigid: a start for the
-reference's last Newton rounds (``stackx.models.planar.reference``) on a large step that its other tries miss.
+reference's last Newton rounds (``stackx.solvers.planar.reference``) on a large step that its other tries miss.
 
 **Where it helps.** On a 20-row pyramid that topples (``planar-xpbd`` at 4 substeps) the reference's paths
 and its proximal point method come within 1e-6 to 1e-3 m/s of an answer and stall there, and Lemke's walk on
@@ -39,8 +39,8 @@ from __future__ import annotations
 import numpy as np
 
 from stackx.kernel import compiled, enabled
-from stackx.models.planar import banded, mode_rows, pivoting
-from stackx.models.planar.problem import ContactProblem
+from stackx.solvers.planar import banded, mode_rows, pivoting
+from stackx.solvers.planar.problem import ContactProblem
 
 DOUBT = 1e-4  # m/s: a point whose mode this little separates from another's is in doubt
 

@@ -1,10 +1,10 @@
 """What the bench measures on every step of a planar run: the error against the reference solve, when boxes
 passed through each other, and when the pile recovered and settled. The column's step log
-(``stackx.models.column.error``) does the same for the column, and the module text there says why every step
+(``stackx.bench.error_column``) does the same for the column, and the module text there says why every step
 and why along the solver's own path; this one carries it over to boxes that slide and turn.
 
 **Error against the reference.** At every step ``k`` of a solver's own run, from the state before the step
-(poses and velocities as the solver left them), the reference (``stackx.models.planar.step_problem``) sets the
+(poses and velocities as the solver left them), the reference (``stackx.solvers.planar.step_problem``) sets the
 step's problem (gravity, the points within the solver's own ``speculative`` margin, 0 for a solver without
 one, grown as the solver grows it for a solver with ``speculative_reach``) and solves it to a residual below 1e-10 m/s. Per movable box, the difference between the velocities the
 solver stored after step ``k`` and the reference's is one speed,
@@ -14,7 +14,7 @@ step beside it. The reference starts each step from the impulses it found for th
 before, so a run's steps cost it few Newton rounds.
 
 **Its own answer's conditions.** Beside the error, which needs the reference, each step also gets what the
-solver's answer breaks on its own (``stackx.models.planar.conditions``), on the same step problem, whether or
+solver's answer breaks on its own (``stackx.solvers.planar.conditions``), on the same step problem, whether or
 not the reference solves it:
 
 - from the velocities it stored, for every solver (engines included), the fastest approach beyond any
@@ -52,12 +52,12 @@ from typing import Any
 import numpy as np
 
 from stackx.bench.criteria import Criteria
-from stackx.models import steplog
-from stackx.models.planar.conditions import CONDITIONS, approach, matched, violations
+from stackx.bench import steplog
+from stackx.solvers.planar.conditions import CONDITIONS, approach, matched, violations
 from stackx.models.planar.measures import half_diagonal, max_depth
-from stackx.models.planar.reference import ReferenceFailure
+from stackx.solvers.planar.reference import ReferenceFailure
 from stackx.models.planar.state import PlanarState
-from stackx.models.planar.step_problem import ReferenceStep
+from stackx.solvers.planar.step_problem import ReferenceStep
 from stackx.run.runner import OnStep
 from stackx.solvers.planar.base import StepImpulses
 from stackx.solvers.planar.reach import reach_in_step

@@ -11,7 +11,7 @@ a load in any way, and with friction the problem is not monotone.
 
 **The method: the central path, then Newton rounds.** A warm start already at the answer (a pile at rest: the
 last step's answer is this one's) lands in ``WARM_ROUNDS`` rounds of its own modes. Otherwise the solve follows
-the central path of the step's complementarity problem (``stackx.models.planar.interior``: a primal-dual
+the central path of the step's complementarity problem (``stackx.solvers.planar.interior``: a primal-dual
 interior point method, which holds every complementary pair at one shrinking product and so chooses no mode
 until the end, where redundant points share their load evenly), and full Newton rounds land from its end
 (``Solution.attempt`` ``PATH``; where they miss, damped rounds, whose sweeps mend the modes but cost: on a
@@ -26,11 +26,11 @@ carry ``d (q - center)`` with the last round's answer as the center, by Newton r
 own residual, and the answers walk to an exact solution; the regularized problem is well conditioned, so its
 rounds do not leap where the true problem's modes read off a far answer give systems with answers at 1e3 m/s.
 Where the walk misses on a problem over ``pivoting.EXACT_POINTS`` points, Lemke's walk on the points whose mode
-is in doubt at the closest answer, the clearly sticking points held rigid (``stackx.models.planar.doubt``,
+is in doubt at the closest answer, the clearly sticking points held rigid (``stackx.solvers.planar.doubt``,
 ``DOUBT``): a problem of a tenth to a third of the points, walked in a second or two, whose answer Newton rounds
 and proximal points take to the exact one; made again from the closest answer then while the last brought it
 tenfold nearer (``DOUBT_GAIN``). Where that misses too (but for a quick solve, which stops here), Lemke's
-complementary pivoting on the Stewart-Trinkle formulation (``stackx.models.planar.pivoting``, ``LEMKE``), which
+complementary pivoting on the Stewart-Trinkle formulation (``stackx.solvers.planar.pivoting``, ``LEMKE``), which
 cannot cycle and ends on an answer for this class of problem, covered first by 1 and then by the step's approach
 (``pivoting.approach_cover``), which ends where the first wanders; Newton rounds take its answer to the exact one
 (on a problem over ``pivoting.EXACT_POINTS`` points its walk is on a regularized problem, and the walk of proximal
@@ -85,10 +85,10 @@ from functools import partial
 import numpy as np
 
 from stackx.kernel import compiled, enabled, kernel
-from stackx.models.planar import banded, mode_rows, pivoting
-from stackx.models.planar.doubt import doubtful_start
-from stackx.models.planar.interior import central_path
-from stackx.models.planar.problem import (GROUND, ContactProblem, effective_masses, inverse_masses, jacobian_rows,
+from stackx.solvers.planar import banded, mode_rows, pivoting
+from stackx.solvers.planar.doubt import doubtful_start
+from stackx.solvers.planar.interior import central_path
+from stackx.solvers.planar.problem import (GROUND, ContactProblem, effective_masses, inverse_masses, jacobian_rows,
                                           residual, velocities_after)
 
 TOLERANCE = 1e-10  # m/s: the contract's residual the reference reaches
@@ -402,7 +402,7 @@ def solve(problem: ContactProblem, pn: np.ndarray | None = None, pt: np.ndarray 
         return (found, found.residual) if found is not None else (None, reached)
 
     def pivot() -> tuple[Solution | None, float]:
-        """Lemke's pivoting (``stackx.models.planar.pivoting``), each answer it ends on taken to the exact one
+        """Lemke's pivoting (``stackx.solvers.planar.pivoting``), each answer it ends on taken to the exact one
         (``start_from``)."""
         best = np.inf
         for pn_start, pt_start in pivoting.starts(problem):
@@ -414,7 +414,7 @@ def solve(problem: ContactProblem, pn: np.ndarray | None = None, pt: np.ndarray 
 
     def in_doubt() -> tuple[Solution | None, float]:
         """Lemke's walk on the points whose mode is in doubt at the closest answer yet, the others held
-        (``stackx.models.planar.doubt``), taken to the exact answer (``start_from``); again from the closest
+        (``stackx.solvers.planar.doubt``), taken to the exact answer (``start_from``); again from the closest
         answer then, while the last walk brought it ``DOUBT_GAIN`` nearer or more."""
         best = np.inf
         while closest[1] is not None:

@@ -1,6 +1,6 @@
 """The columns of a planar contact table: ``ids`` (which bodies, which corners) and ``table`` (where, how
-heavy, what impulse), in one place for every stage that reads or writes them
-(``stackx.solvers.planar.contacts`` describes the table)."""
+heavy, what impulse), in one place with the model for every solver stage, reference and measure that reads or
+writes them (``stackx.solvers.planar.contacts`` describes the table and the stages on it)."""
 
 # ids columns
 A, B, FEATURE = 0, 1, 2

@@ -28,8 +28,8 @@ import numpy as np
 
 from stackx.kernel import compiled, enabled, kernel
 from stackx.models.planar.monitor import contact_room
-from stackx.models.planar.problem import ContactProblem, residual, velocities_after
-from stackx.models.planar.reference import ReferenceFailure, Solution, solve
+from stackx.solvers.planar.problem import ContactProblem, residual, velocities_after
+from stackx.solvers.planar.reference import ReferenceFailure, Solution, solve
 from stackx.models.planar.state import PlanarState
 from stackx.solvers.planar.contacts import (A, B, DEPTH, MU, NX, NY, PN, PT, RAX, RAY, RBX, RBY, TARGET,
                                             contact_workspace, find_contacts, gravity, prepare, recall, remember,

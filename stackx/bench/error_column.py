@@ -38,7 +38,7 @@ import numpy as np
 from stackx.bench.criteria import Criteria
 from stackx.kernel import kernel
 from stackx.models.column.state import ColumnState
-from stackx.models.steplog import RowLog
+from stackx.bench.steplog import RowLog
 from stackx.run.runner import OnStep
 from stackx.solvers.column.exact import solve_step
 from stackx.solvers.column.isotonic import workspace

@@ -47,8 +47,8 @@ from __future__ import annotations
 import numpy as np
 
 from stackx.kernel import kernel
-from stackx.models.planar.banded import add, band, factor, ordering, solve
-from stackx.models.planar.mode_rows import gathered, spread
+from stackx.solvers.planar.banded import add, band, factor, ordering, solve
+from stackx.solvers.planar.mode_rows import gathered, spread
 
 TAU = 1e-13  # (m/s)^2: the pairs' mean product at which the path is left ...
 EQUATIONS = 1e-10  # m/s: ... once the equations hold this well too

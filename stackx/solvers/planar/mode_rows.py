@@ -19,7 +19,7 @@ from __future__ import annotations
 import numpy as np
 
 from stackx.kernel import kernel
-from stackx.models.planar.banded import solve
+from stackx.solvers.planar.banded import solve
 
 
 @kernel

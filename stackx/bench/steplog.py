@@ -1,6 +1,6 @@
 """The figures a bench step log gives per run, whatever the model: one place for reading a batch's arrays.
 
-A model's step log (``stackx.models.column.error``, ``stackx.models.planar.error``) keeps, per batch, arrays
+Each model's step log (``stackx.bench.error_column``, ``stackx.bench.error_planar``) keeps, per batch, arrays
 with one element per row: ``sumsq``, ``values`` (differences compared), ``measured`` (steps compared),
 ``worst``, ``worst_step``, ``crushed_at``, ``last_overlap``, ``last_unheld``, ``last_moving`` and ``steps``.
 ``RowLog`` reads row ``b`` of them as the bench's error, crushed step and timeline.

@@ -1,11 +1,11 @@
 """How far a solver's own answer to a step is from the step's contact conditions, needing no reference.
 
-The reference solve (``stackx.models.planar.reference``) says how far a solver's velocities are from the
+The reference solve (``stackx.solvers.planar.reference``) says how far a solver's velocities are from the
 exact answer, at the cost of solving every step exactly. This module measures what a solver's answer itself
 breaks, at the cost of one pass over the step's points, so it can run on every step of every run:
 
 - with the solver's impulses (``violations``): each condition of the contract
-  (``stackx.models.planar.problem``) on its own, in m/s: a point approaching faster than its target
+  (``stackx.solvers.planar.problem``) on its own, in m/s: a point approaching faster than its target
   (*penetration*), a normal impulse below zero (*pull*, as the velocity it would give the point alone),
   a point pushing while it separates faster than its target (*complementarity*, the smaller of the two), a
   tangent impulse outside Coulomb's box (*box*), and friction not opposing the slip at its bound or a point
@@ -30,7 +30,7 @@ from __future__ import annotations
 import numpy as np
 
 from stackx.kernel import compiled, enabled, kernel, leaf
-from stackx.models.planar.problem import ContactProblem
+from stackx.solvers.planar.problem import ContactProblem
 from stackx.solvers.planar.contacts import COLUMNS, PN, PT, recall
 
 CONDITIONS = ("penetration", "pull", "complementarity", "box", "dissipation")
