@@ -43,9 +43,10 @@ def _sets(overrides: Mapping[str, Any] | None) -> list[str]:
 def load(config: str | Path | Mapping[str, Any], overrides: Mapping[str, Any] | None = None,
          plugins: str | Path | None = None, name: str = "notebook") -> ExperimentSpec:
     """A validated config from a YAML file, or from a dict shaped like one (``name`` stands for its file name
-    in errors, which then name the key without a line). ``overrides`` are dotted keys as for ``--set``; ``plugins`` a folder of local
-    plugins (when not given: for a file, the ``plugins/`` folder in its own folder, never one above; for a dict,
-    none). Bad input raises ``ConfigError`` with the same one-line message as the command line."""
+    in errors, which then name the key without a line). ``overrides`` are dotted keys as for ``--set``;
+    ``plugins`` a folder of local plugins (when not given: for a file, the ``plugins/`` folder in its own folder,
+    never one above; for a dict, none). Bad input raises ``ConfigError`` with the same one-line message as the
+    command line."""
     folder = Path(plugins) if plugins is not None else None
     if not isinstance(config, Mapping):
         return load_file(str(config), _sets(overrides), folder)

@@ -515,6 +515,9 @@ def _resolve_run(name: str, src: Source, overrides: dict[str, Any], sections: di
             raise src.error(("scene", *event.origin, "step"), f"step {event.step} is too late: events happen "
                             f"before the last {model.window} of the {base.steps} steps, which measure the "
                             "final motion of one set of boxes")
+    outlasted = scene.outlasts(base.steps, base.dt, base.gravity)
+    if outlasted is not None:
+        raise src.error(outlasted[0], f"run {name!r}: {outlasted[1]}")
     return RunSpec(name, scene, solver_cls, solver_params, base.gravity, base.dt, base.steps, overrides, model)
 
 

@@ -53,3 +53,9 @@ class Scene:
     def events(self) -> tuple[Event, ...]:
         """What happens to the state during a run, in step order (nothing, unless the scene says so)."""
         return ()
+
+    def outlasts(self, steps: int, dt: float, gravity: float) -> tuple[tuple[str, ...], str] | None:
+        """Where (a key path) and why a run of ``steps`` of ``dt`` outlasts what the scene states of it (an
+        outcome that stops holding before the run ends, so that every solver would be judged wrong); None when
+        it does not, as for a scene that states nothing."""
+        return None

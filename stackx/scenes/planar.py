@@ -624,6 +624,20 @@ class Planar(Scene):
         assert k is not None
         return k.light, (k.light + 1) * k.height - k.height / 2, k.light + 1
 
+    def outlasts(self, steps: int, dt: float, gravity: float) -> tuple[tuple[str, ...], str] | None:
+        """A sliding ramp box's stated acceleration holds while it is on the ramp: a run long enough for it to
+        slide past the ramp's lower end is refused at ``steps`` (it would judge every solver "slides wrong")."""
+        slope, r = self.slope(), self.params.ramp
+        if slope is None or r is None or slope.regime != "slide":
+            return None
+        slid = 0.5 * slope.acceleration(gravity) * (steps * dt) ** 2
+        room = r.at + r.length / 2 - r.width / 2  # from the box's downhill edge to the ramp's lower end
+        if slid <= room:
+            return None
+        return ("steps",), (f"over {steps:,} steps the ramp's box slides {slid:.3g} m, past the ramp's lower end "
+                            f"{room:.3g} m below it, where its stated slide stops holding; use fewer steps, a "
+                            "longer ramp (length) or a start further up it (at)")
+
     def slope(self) -> Slope | None:
         """The ramp's analytic answer, when the scene is a ramp (the box on it is body 1)."""
         r = self.params.ramp

@@ -168,6 +168,19 @@ def test_the_cli_refuses_an_undecided_ramp_with_exit_2_and_writes_nothing(cli: C
     assert "Traceback" not in done.stderr and not out.exists()
 
 
+def test_a_run_long_enough_to_slide_the_box_off_the_ramp_is_refused_at_steps() -> None:
+    """ramp-slide-tall's box (30 degrees, mu 0.2, 0.4 m wide, 5 m up a 20 m ramp) reaches the lower end once
+    g (sin a - mu cos a) t^2 / 2 passes 5 + 10 - 0.2 m: the last step count that keeps it on is accepted, the next
+    refused where the config sets `steps`, since past the end its stated slide would fail every solver."""
+    a = 9.8 * (math.sin(math.radians(30)) - 0.2 * math.cos(math.radians(30)))
+    last = math.floor(math.sqrt(2 * (5 + 10 - 0.2) / a) * 60)  # steps of 1/60 s still on the ramp
+    path = CONFIGS / "planar" / "ramp-slide-tall.yaml"
+    assert api.load(path, {"steps": last}).runs[0].steps == last
+    with pytest.raises(ConfigError) as caught:
+        api.load(path, {"steps": last + 1})
+    assert caught.value.key == "steps" and "past the ramp's lower end" in caught.value.message
+
+
 def _braked(speed: float, mu: float, dt: float, *, explicit: bool = False) -> float:
     """The distance a box braked by Coulomb friction covers, stepped here one step at a time: each step takes
     mu g dt off its speed (never below 0) and moves it by the new speed (or, ``explicit``, by the old one)."""
