@@ -19,7 +19,7 @@ from pydantic import BaseModel, ValidationError
 
 from stackx import registry
 from stackx.bench.case import BenchSection
-from stackx.config.experiment import ExperimentSpec, parse_key
+from stackx.config.experiment import ExperimentSpec, above_hint, parse_key
 from stackx.errors import ConfigError
 from stackx.config.spec import RunSpec
 from stackx.config.yamlsrc import Path
@@ -169,8 +169,12 @@ def load_case(spec: ExperimentSpec, names: list[str] | None) -> tuple[Case, dict
             registry.solvers.get(name)
         except ConfigError as exc:
             raise spec.source.error(("bench", "knobs", name), exc.message, key=True) from None
+    try:
+        chosen = chosen_solvers(names)
+    except registry.UnknownName as exc:  # a local solver named with --solvers may sit in a plugins/ folder above
+        raise ConfigError(f"--solvers: {exc.hinted(above_hint(spec.file))}", file=spec.file) from None
     plans, left_out = [], {}
-    for cls in chosen_solvers(names):
+    for cls in chosen:
         plan = plan_solver(cls, spec, run, section)
         if isinstance(plan, str):
             left_out[cls.plugin_name] = plan

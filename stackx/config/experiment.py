@@ -267,7 +267,7 @@ def _keep_accepted(src: Source, section: Path, reg: registry.Registry[Any], name
     try:
         params = reg.get(name).Params
     except registry.UnknownName as exc:
-        raise ConfigError(exc.hinted(_above_hint(src.file)), file=where) from None
+        raise ConfigError(exc.hinted(above_hint(src.file)), file=where) from None
     except ConfigError as exc:
         raise ConfigError(exc.message, file=where) from None
     accepted = {f.alias or k for k, f in params.model_fields.items()} | set(params.model_fields) | {"name"}
@@ -350,7 +350,7 @@ def _plugin(reg: registry.Registry[Any], section: dict[str, Any], key: str, src:
         cls = reg.get(name)
         registry.require_available(reg.kind, name, cls)
     except registry.UnknownName as exc:
-        raise src.error(prefix + (key,), exc.hinted(_above_hint(src.file))) from None
+        raise src.error(prefix + (key,), exc.hinted(above_hint(src.file))) from None
     except ConfigError as exc:
         raise src.error(prefix + (key,), exc.message) from None
     rest = {k: v for k, v in section.items() if k != key}
@@ -632,7 +632,7 @@ def plugins_above(config: str) -> FsPath | None:
     return None
 
 
-def _above_hint(config: str) -> str:
+def above_hint(config: str) -> str:
     """What to add to an unknown plugin name's error: a ``plugins/`` folder above the config, which was not
     imported, and how to name it (empty when there is none, or it was named with ``--plugins``)."""
     if not FsPath(config).is_file():

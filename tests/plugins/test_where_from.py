@@ -80,6 +80,15 @@ def test_an_unknown_name_given_with_set_points_at_the_folder_above_too(cli: Cli,
     assert not (deep.parents[3] / "imported").exists()
 
 
+def test_a_solver_named_to_bench_points_at_the_folder_above_too(cli: Cli, deep: Path) -> None:
+    done = cli("bench", CONFIG, "--solvers", "planted", "--out", "out", cwd=deep)
+    assert done.returncode == 2
+    [line] = done.stderr.splitlines()
+    assert line.startswith(f"error: {CONFIG}: --solvers: unknown solver 'planted'; plugins/ folders above the "
+                           "config are not imported: name one with --plugins ../../../plugins; known: "), line
+    assert not (deep.parents[3] / "imported").exists() and not (deep / "out").exists()
+
+
 # ------------------------------------------------------------------------------------ what may be imported
 
 
