@@ -214,14 +214,14 @@ FINALIZER = """
     interrupt.install()
     interrupt.run(main)
 """
-AT_EXIT = """
-    import threading, time
+LINGERING = """
+    import signal, threading, time
     from stackx.run import interrupt
 
     def linger():
         while not interrupt._state.over:  # the command is over; the process waits for this thread
             time.sleep(0.01)
-        print("done", flush=True)
+        THEN
         threading.Event().wait()
 
     def main():
@@ -230,6 +230,9 @@ AT_EXIT = """
     interrupt.install()
     interrupt.run(main)
 """
+AT_EXIT = LINGERING.replace("THEN", 'print("done", flush=True)')
+# the signal handed to the lingering thread, not the main one
+SELF_SIGNALLED = LINGERING.replace("THEN", "signal.pthread_kill(threading.get_ident(), signal.SIGNAME)")
 
 
 @pytest.mark.parametrize("name", ["SIGINT", "SIGTERM"])
@@ -242,24 +245,6 @@ def test_a_signal_in_a_finalizer_is_one_line_not_a_printed_traceback(name: str) 
 def test_a_signal_while_the_process_ends_is_one_line(name: str) -> None:
     # the command is over, but Python waits for a thread at exit (as it does for a pool or a cluster)
     assert _stopped_after(AT_EXIT, "done", name) == (128 + signals.Signals[name], "", "interrupted\n")
-
-
-SELF_SIGNALLED = """
-    import signal, threading, time
-    from stackx.run import interrupt
-
-    def linger():
-        while not interrupt._state.over:
-            time.sleep(0.01)
-        signal.pthread_kill(threading.get_ident(), signal.SIGNAME)  # handed to this thread, not the main one
-        threading.Event().wait()
-
-    def main():
-        threading.Thread(target=linger).start()
-
-    interrupt.install()
-    interrupt.run(main)
-"""
 
 
 @pytest.mark.parametrize("name", ["SIGINT", "SIGTERM"])
