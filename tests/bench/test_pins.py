@@ -32,61 +32,61 @@ KNOB = [4, 16, 64]
 
 PINNED: dict[str, dict[str, list[int | None]]] = {
     "big-dt": {
-        "baumgarte": [], "exact": [None], "jacobi": [64], "ngs": [], "pgs": [64], "soft-step": [],
+        "avbd": [], "baumgarte": [], "exact": [None], "jacobi": [64], "ngs": [], "pgs": [64], "soft-step": [],
         "split-impulse": [], "warm-start": [16, 64], "xpbd": []},
     "drop-200": {
-        "baumgarte": [], "exact": [None], "jacobi": [], "ngs": [], "pgs": [], "soft-step": [], "split-impulse": [],
+        "avbd": [], "baumgarte": [], "exact": [None], "jacobi": [], "ngs": [], "pgs": [], "soft-step": [], "split-impulse": [],
         "warm-start": [], "xpbd": []},
     "drop-fast": {
-        "baumgarte": [], "exact": [], "jacobi": [], "ngs": [64], "pgs": [], "soft-step": [], "split-impulse": [64],
+        "avbd": [16, 64], "baumgarte": [], "exact": [], "jacobi": [], "ngs": [64], "pgs": [], "soft-step": [], "split-impulse": [64],
         "warm-start": [], "xpbd": []},
     "gap-1000": {
-        "baumgarte": [], "exact": [None], "jacobi": [], "ngs": [], "pgs": [], "soft-step": [], "split-impulse": [],
+        "avbd": [], "baumgarte": [], "exact": [None], "jacobi": [], "ngs": [], "pgs": [], "soft-step": [], "split-impulse": [],
         "warm-start": [], "xpbd": []},
     "gap-200": {
-        "baumgarte": [], "exact": [None], "jacobi": [], "ngs": [], "pgs": [], "soft-step": [], "split-impulse": [],
+        "avbd": [], "baumgarte": [], "exact": [None], "jacobi": [], "ngs": [], "pgs": [], "soft-step": [], "split-impulse": [],
         "warm-start": [], "xpbd": []},
     "light-on-heavy": {
-        "baumgarte": [4, 16, 64], "exact": [None], "jacobi": [4, 16, 64], "ngs": [4, 16, 64], "pgs": [15, 16, 64],
+        "avbd": [16, 64], "baumgarte": [4, 16, 64], "exact": [None], "jacobi": [4, 16, 64], "ngs": [4, 16, 64], "pgs": [15, 16, 64],
         "soft-step": [4, 16, 64], "split-impulse": [4, 16, 64], "warm-start": [4, 16, 64], "xpbd": [4, 16, 64]},
     "load-removal": {
-        "baumgarte": [64], "exact": [None], "jacobi": [64], "ngs": [16, 64], "pgs": [], "soft-step": [16, 64],
+        "avbd": [16, 64], "baumgarte": [64], "exact": [None], "jacobi": [64], "ngs": [16, 64], "pgs": [], "soft-step": [16, 64],
         "split-impulse": [16, 64], "warm-start": [16, 64], "xpbd": [16, 64]},
     "long-rest": {
-        "baumgarte": [4, 16, 64], "exact": [None], "jacobi": [4, 16, 64], "ngs": [4, 16, 64], "pgs": [],
+        "avbd": [4, 16, 64], "baumgarte": [4, 16, 64], "exact": [None], "jacobi": [4, 16, 64], "ngs": [4, 16, 64], "pgs": [],
         "soft-step": [4, 16, 64], "split-impulse": [4, 16, 64], "warm-start": [4, 16, 64], "xpbd": [4, 16, 64]},
     "overlap-25": {
-        "baumgarte": [], "exact": [], "jacobi": [], "ngs": [], "pgs": [], "soft-step": [], "split-impulse": [],
+        "avbd": [], "baumgarte": [], "exact": [], "jacobi": [], "ngs": [], "pgs": [], "soft-step": [], "split-impulse": [],
         "warm-start": [], "xpbd": []},
     "percent-1": {
-        "baumgarte": [], "exact": [], "jacobi": [], "ngs": [16, 64], "pgs": [], "soft-step": [64],
+        "avbd": [4, 16, 64], "baumgarte": [], "exact": [], "jacobi": [], "ngs": [16, 64], "pgs": [], "soft-step": [64],
         "split-impulse": [], "warm-start": [], "xpbd": []},
     "ratio-100": {
-        "baumgarte": [64], "exact": [None], "jacobi": [], "ngs": [64], "pgs": [], "soft-step": [],
+        "avbd": [64], "baumgarte": [64], "exact": [None], "jacobi": [], "ngs": [64], "pgs": [], "soft-step": [],
         "split-impulse": [64], "warm-start": [64], "xpbd": [16, 64]},
     "ratio-1000": {
-        "baumgarte": [], "exact": [None], "jacobi": [], "ngs": [], "pgs": [], "soft-step": [], "split-impulse": [],
+        "avbd": [64], "baumgarte": [], "exact": [None], "jacobi": [], "ngs": [], "pgs": [], "soft-step": [], "split-impulse": [],
         "warm-start": [], "xpbd": []},
     "recovery-10": {
-        "baumgarte": [], "exact": [None], "jacobi": [], "ngs": [], "pgs": [], "soft-step": [], "split-impulse": [],
+        "avbd": [], "baumgarte": [], "exact": [None], "jacobi": [], "ngs": [], "pgs": [], "soft-step": [], "split-impulse": [],
         "warm-start": [], "xpbd": []},
     "recovery-100": {
-        "baumgarte": [], "exact": [None], "jacobi": [], "ngs": [], "pgs": [], "soft-step": [], "split-impulse": [],
+        "avbd": [], "baumgarte": [], "exact": [None], "jacobi": [], "ngs": [], "pgs": [], "soft-step": [], "split-impulse": [],
         "warm-start": [], "xpbd": []},
     "recovery-1000": {
-        "baumgarte": [], "exact": [None], "jacobi": [], "ngs": [], "pgs": [], "soft-step": [], "split-impulse": [],
+        "avbd": [], "baumgarte": [], "exact": [None], "jacobi": [], "ngs": [], "pgs": [], "soft-step": [], "split-impulse": [],
         "warm-start": [], "xpbd": []},
     "slop-0": {
-        "baumgarte": [], "exact": [None], "jacobi": [64], "ngs": [16, 64], "pgs": [64], "soft-step": [64],
+        "avbd": [4, 16, 64], "baumgarte": [], "exact": [None], "jacobi": [64], "ngs": [16, 64], "pgs": [64], "soft-step": [64],
         "split-impulse": [], "warm-start": [16, 64], "xpbd": []},
     "tall-100": {
-        "baumgarte": [], "exact": [None], "jacobi": [], "ngs": [], "pgs": [], "soft-step": [], "split-impulse": [],
+        "avbd": [], "baumgarte": [], "exact": [None], "jacobi": [], "ngs": [], "pgs": [], "soft-step": [], "split-impulse": [],
         "warm-start": [], "xpbd": [64]},
     "tall-1000": {
-        "baumgarte": [], "exact": [None], "jacobi": [], "ngs": [], "pgs": [], "soft-step": [], "split-impulse": [],
+        "avbd": [], "baumgarte": [], "exact": [None], "jacobi": [], "ngs": [], "pgs": [], "soft-step": [], "split-impulse": [],
         "warm-start": [], "xpbd": []},
     "tall-20": {
-        "baumgarte": [], "exact": [None], "jacobi": [64], "ngs": [], "pgs": [], "soft-step": [4, 16, 64],
+        "avbd": [], "baumgarte": [], "exact": [None], "jacobi": [64], "ngs": [], "pgs": [], "soft-step": [4, 16, 64],
         "split-impulse": [], "warm-start": [16, 64], "xpbd": [16, 64]},
 }
 
