@@ -57,6 +57,9 @@ BUILTIN_MODULES = {
                "stackx.solvers.column.xpbd", "stackx.solvers.column.jacobi",
                "stackx.solvers.planar.pgs", "stackx.solvers.planar.warm_start", "stackx.solvers.planar.ngs",
                "stackx.solvers.planar.exact", "stackx.solvers.planar.soft_step", "stackx.solvers.planar.xpbd",
+               "stackx.solvers.column.avbd", "stackx.solvers.planar.avbd", "stackx.solvers.planar.jacobi",
+               "stackx.solvers.planar.pgs_soft", "stackx.solvers.planar.tgs_soft",
+               "stackx.solvers.planar.tgs_sticky", "stackx.solvers.planar.tgs_ngs", "stackx.solvers.planar.shock",
                # engines: their packages are imported only when a run is set up (stackx.solvers.engines.engine)
                "stackx.solvers.engines.pymunk_engine", "stackx.solvers.engines.box2d_engine",
                "stackx.solvers.engines.box2d3_engine", "stackx.solvers.engines.mujoco_engine"],

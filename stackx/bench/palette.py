@@ -2,7 +2,8 @@
 
 A solver keeps its colour from plot to plot and from report to report, so a reader who has learnt that the
 lab solver is red need not read a legend again. The built-in solvers have colours of their own (the lab
-solver red, the reference near black, the others the remaining colours of matplotlib's ``tab10``); any other
+solver red, the reference near black, the others the remaining colours of matplotlib's ``tab10`` and, for the
+planar solvers with no column counterpart and the engines, ``OWN``); any other
 solver (a plugin) gets one of a second set, picked by a hash of its name, so it too keeps its colour
 everywhere (two plugins may share one). A planar solver named after a column one (``planar-pgs``) has that
 solver's hue, darker (``SHADE``): the lab's rules are red on either model, and no two built-ins share a colour.
@@ -22,6 +23,18 @@ BUILT_IN = {
     "xpbd": "#17becf",
     "jacobi": "#bcbd22",
     "exact": "#222222",
+    "avbd": "#d6616b",
+}
+OWN = {  # built-in solvers with no column counterpart: the planar-only ones and the engines
+    "planar-pgs-soft": "#8ca252",
+    "planar-tgs-soft": "#7b4173",
+    "planar-tgs-sticky": "#8c6d31",
+    "planar-tgs-ngs": "#5254a3",
+    "planar-shock": "#e7ba52",
+    "pymunk": "#bd9e39",
+    "box2d": "#a55194",
+    "box2d-v3": "#6baed6",
+    "mujoco": "#9c9ede",
 }
 PLANAR = "planar-"  # the planar solvers' prefix: planar-pgs is the lab's rules on the planar model
 SHADE = 0.6  # a planar solver's colour: its column counterpart's, each channel times this
@@ -35,6 +48,8 @@ def colour(solver: str) -> str:
     process to process)."""
     if solver in BUILT_IN:
         return BUILT_IN[solver]
+    if solver in OWN:
+        return OWN[solver]
     if solver.startswith(PLANAR) and solver[len(PLANAR):] in BUILT_IN:
         rgb = bytes.fromhex(BUILT_IN[solver[len(PLANAR):]][1:])
         return "#" + bytes(int(c * SHADE) for c in rgb).hex()

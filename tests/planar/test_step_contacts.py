@@ -10,7 +10,9 @@ import pytest
 from stackx.models.planar.state import PlanarState
 from tests.planar.worlds import run, world
 
-SOLVERS = ["planar-pgs", "planar-warm-start", "planar-ngs", "planar-soft-step", "planar-xpbd"]
+SOLVERS = ["planar-pgs", "planar-warm-start", "planar-ngs", "planar-soft-step", "planar-xpbd", "planar-jacobi",
+           "planar-pgs-soft", "planar-tgs-soft", "planar-tgs-sticky", "planar-tgs-ngs", "planar-shock",
+           "planar-avbd"]
 
 
 def tumbling() -> PlanarState:
