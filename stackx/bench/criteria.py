@@ -23,7 +23,8 @@ most ``turn`` (``slide_turn``); a turn downhill of at least ``tip`` where they s
 downhill corner (``tip_turn``); a box pushed along the ground stops between the distance of the model's own
 steps and v^2 / (2 mu g), to within ``stops`` of the latter (``stop_error``);
 a box dropped to land on a face ends within ``turn`` of a multiple of 90 degrees (``land_tilt``), and every
-box placed to topple ends at least ``fall`` from upright (``fall_tilt``).
+box placed to topple ends at least ``fall`` from upright (``fall_tilt``); every box placed with its centre of
+mass past its support's edge ends at least ``drop`` of its own heights lower (``drop``, "did not fall").
 The top box's rest height is judged where a rigid pile gives it one (a stack, a pyramid, heavy on light), over
 the contacts under it (``rest_contacts``; on the column every box's). A sliding box never settles, so
 "settled" is not judged on it.
@@ -46,7 +47,7 @@ if TYPE_CHECKING:
 NAMES = ("holds", "settled", "never_launched")
 WORDS = {"max_depth": "overlaps", "max_gap": "gap", "reach": "crushed", "rms_motion": "moving",
          "launch": "launched", "drift_x": "drifted", "drift_angle": "turned", "slide_error": "slides wrong",
-         "slide_turn": "turned", "tip_turn": "did not tip", "stop_error": "stops wrong"}
+         "slide_turn": "turned", "tip_turn": "did not tip", "stop_error": "stops wrong", "drop": "did not fall"}
 # a failed check in a word, the one word every output (``stackx run``, the bench's terminal and report) uses
 # for it; |top_rest_error| is 'sunk' or 'high' by its sign (``word``)
 
@@ -87,6 +88,10 @@ class Criteria(BaseModel):
                        description="(planar ramp) 'holds' needs a box that should tip or pivot over its downhill "
                                    "corner to end turned downhill at least this far (rad): 0.785 is half-way to "
                                    "its next face, which it lies on at 1.571; one that stood reads about 0")
+    drop: float = Field(1.0, gt=0, allow_inf_nan=False,
+                        description="(planar) 'holds' needs every box placed past its support's edge to end at "
+                                    "least this many of its own heights lower than it started: 1 is off a "
+                                    "ledge one box high; one that stayed on its support reads about 0")
     stops: float = Field(0.01, gt=0, allow_inf_nan=False,
                          description="(planar skid) 'holds' allows the box's stopping distance to lie outside "
                                      "[the model's steps' distance, v^2 / (2 mu g)] by this share of v^2 / (2 mu g)")
@@ -168,7 +173,7 @@ def judge(measures: Mapping[str, Any], criteria: Criteria, unjudged: Collection[
     """The three verdicts of one run from its measures (the column's: ``max_depth``, ``max_gap``,
     ``top_rest_error``, ``boxes``, ``reach``, ``rms_motion``, ``launch``; planar runs may lack some and add
     ``drift_x``, ``drift_angle``, ``slide_error``, ``slide_turn``, ``tip_turn``, ``stop_error``, ``rest_contacts``,
-    ``land_tilt``, ``fall_tilt``). A check
+    ``land_tilt``, ``fall_tilt``, ``drop``). A check
     is made when its measure is there and not in ``unjudged``; a verdict without checks has nothing that could
     fail it and passes."""
     def check(measure: str, limit: float, strict: bool = False, least: bool = False) -> list[Check]:
@@ -185,7 +190,7 @@ def judge(measures: Mapping[str, Any], criteria: Criteria, unjudged: Collection[
              *check("slide_error", criteria.slide), *check("slide_turn", criteria.turn),
              *check("tip_turn", criteria.tip, least=True),
              *check("stop_error", criteria.stops), *check("land_tilt", criteria.turn),
-             *check("fall_tilt", criteria.fall, least=True))
+             *check("fall_tilt", criteria.fall, least=True), *check("drop", criteria.drop, least=True))
     return {
         "holds": Verdict("holds", holds),
         "settled": Verdict("settled", tuple(check("rms_motion", criteria.settle, strict=True))),

@@ -12,7 +12,8 @@ the start is the rest pose: ``rests()`` names the boxes that should stay there (
 ``rest_top()`` the box whose final height says whether the pile sank, where a rigid pile gives it one, and
 ``slope()`` the ramp's analytic answer (stick, slide, tip or pivot, from the statics of a rigid box), ``stop()``
 the skid's (where it stops); ``lands()`` the boxes dropped to come to rest on a face and ``falls()`` those placed
-to topple (dominoes), whose final angles are judged. Angles in a config are in degrees, counter-clockwise; the
+to topple (dominoes), whose final angles are judged, and ``drops()`` those placed with their centre of mass past
+their support's edge, whose final height is judged. Angles in a config are in degrees, counter-clockwise; the
 state holds radians. The ground has no friction of its own: a contact with it uses the box's coefficient (the
 ground is as rough as what touches it).
 """
@@ -57,6 +58,10 @@ class Body(BaseModel):
                                            "it ends within criteria.turn of a multiple of 90 degrees")
     falls: bool = Field(False, description="placed to topple: the bench judges that it ends tilted at least "
                                            "criteria.fall from upright")
+    drops: bool = Field(False, description="placed with its centre of mass past its support's edge, to fall off: "
+                                           "the bench judges that it ends at least criteria.drop of its own "
+                                           "heights lower than it started (where a tumbling box ends turned is "
+                                           "not stated)")
 
     @model_validator(mode="after")
     def _mass(self) -> Body:
@@ -66,8 +71,8 @@ class Body(BaseModel):
             raise ValueError("inertia goes with mass (with density it follows from the size)")
         if self.static and (self.vx, self.vy, self.w) != (0.0, 0.0, 0.0):
             raise ValueError("a static box cannot move: drop vx, vy and w or 'static'")
-        if sum((self.rests, self.lands, self.falls)) > 1:
-            raise ValueError("a box either rests, lands or falls: give at most one of them")
+        if sum((self.rests, self.lands, self.falls, self.drops)) > 1:
+            raise ValueError("a box either rests, lands, falls or drops: give at most one of them")
         return self
 
     def mass_inertia(self) -> tuple[float, float]:
@@ -600,6 +605,11 @@ class Planar(Scene):
     def falls(self) -> list[int]:
         """The bodies placed to topple (how far they end from upright is judged)."""
         return [i for i, b in enumerate(self.bodies()) if b.falls and not b.static]
+
+    def drops(self) -> list[int]:
+        """The bodies placed past their support's edge to fall off it (how far they end below their start is
+        judged)."""
+        return [i for i, b in enumerate(self.bodies()) if b.drops and not b.static]
 
     def rest_top(self) -> tuple[int, float, int] | None:
         """The body whose final height says whether a pile sank, that height on rigid boxes, and the contacts

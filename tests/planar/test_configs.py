@@ -11,9 +11,10 @@ from stackx import api
 from tests.conftest import CONFIGS
 
 PLANAR = CONFIGS / "planar"
-CASES = ["brick-wall", "card-house", "dominoes", "fast-into-stack", "heavy-on-light-100", "heavy-on-light-1000",
-         "heavy-slab", "pyramid-10", "pyramid-20", "pyramid-drop", "ramp-above", "ramp-below", "ramp-pivot",
-         "ramp-slide", "ramp-slide-tall", "ramp-stick", "ramp-tip", "skid", "stack-10", "stack-40", "tilted-drop"]
+CASES = ["alternating-50", "brick-wall", "card-house", "dominoes", "doubling-stack", "fast-into-stack",
+         "heavy-on-light-100", "heavy-on-light-1000", "heavy-slab", "overhang", "overhang-topples", "pyramid-10",
+         "pyramid-20", "pyramid-drop", "ramp-above", "ramp-below", "ramp-pivot", "ramp-slide", "ramp-slide-tall",
+         "ramp-stick", "ramp-tip", "skid", "slab-on-posts", "stack-10", "stack-40", "tilted-drop"]
 SHORT = {"ramp-slide": 120, "ramp-above": 120, "tilted-drop": 180, "pyramid-drop": 240, "dominoes": 480,
          "brick-wall": 300, "ramp-tip": 180, "ramp-pivot": 180, "ramp-slide-tall": 120,
          "skid": 120}
@@ -44,7 +45,8 @@ def test_resting_cases_last_10_s_at_60_hz(name: str) -> None:
 
 @pytest.mark.parametrize(("name", "boxes"), [("stack-10", 10), ("stack-40", 40), ("pyramid-10", 55),
                                              ("pyramid-20", 210), ("heavy-on-light-100", 2), ("fast-into-stack", 6),
-                                             ("card-house", 7)])
+                                             ("card-house", 7), ("overhang", 6), ("overhang-topples", 6),
+                                             ("slab-on-posts", 3), ("alternating-50", 6), ("doubling-stack", 5)])
 def test_each_case_has_the_boxes_its_name_says(name: str, boxes: int) -> None:
     assert _run(name).scene.size() == boxes
 

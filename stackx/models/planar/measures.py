@@ -7,8 +7,9 @@ how far a box ever got into another (``reach``), the fastest launch, and the RMS
 The bench adds what needs the scene: which boxes were placed where they should stay (their **drift**: how far
 they moved sideways, ``drift_x``, and turned, ``drift_angle``, from the start to the end), where the top of a
 rigid pile would be (``top_rest_error``), the ramp's analytic answer (``slide_error`` where the box sticks or
-slides, ``tip_turn`` where it tips or pivots), where a skidding box stopped (``stop_error``), and how the boxes
-that should end on a face or fallen ended (``land_tilt``, ``fall_tilt``). Every measure is
+slides, ``tip_turn`` where it tips or pivots), where a skidding box stopped (``stop_error``), how the boxes
+that should end on a face or fallen ended (``land_tilt``, ``fall_tilt``), and how far those placed past their
+support's edge fell (``drop``). Every measure is
 deterministic.
 """
 
@@ -150,6 +151,18 @@ def tilts(start: PlanarState, end: PlanarState, lands: list[int], falls: list[in
     return out
 
 
+def dropped(start: PlanarState, end: PlanarState, drops: list[int]) -> dict[str, float]:
+    """How far the boxes placed past their support's edge fell (row 0): ``drop``, the smallest of their falls
+    from start to end, each in its own heights (its full height, ``2 hy``). A box that fell off a ledge one
+    box high onto the ground reads at least 1; one still on its support reads about 0. Its final angle is not
+    read: a box tumbling off a ledge may end on any face."""
+    if not drops:
+        return {}
+    idx = np.asarray(drops)
+    fell = (start.y[0, idx] - end.y[0, idx]) / (2 * start.hy[0, idx])
+    return {"drop": float(fell.min())}
+
+
 def slide(end: PlanarState, box: int, angle: float, expected: float, time: float) -> dict[str, float]:
     """A ramp box's acceleration down the slope of ``angle`` (rad), from its final velocity after ``time``
     seconds from rest (symplectic steps give ``v = a t`` exactly under a constant force), and its distance
@@ -181,12 +194,14 @@ def bench_measures(result: RunResult) -> dict[str, float]:
     (its peak-to-peak height over the final window) where the scene is one pile; ``slide_acceleration`` /
     ``slide_error`` on a ramp whose box sticks or slides (and ``slide_turn``, how far a sliding one turned,
     rad), ``tip_turn`` on one whose box tips or pivots; ``stop_distance`` / ``stop_error`` on a skid;
-    ``land_tilt`` and ``fall_tilt`` where boxes should end on a face or fallen."""
+    ``land_tilt`` and ``fall_tilt`` where boxes should end on a face or fallen; ``drop`` where boxes should fall
+    off their support."""
     scene, final, steps = result.spec.scene, result.final, result.spec.steps
     out: dict[str, float] = {"boxes": float(final.bodies)}
     start = scene.build()
     out.update(drift(start, final, scene.rests()))
     out.update(tilts(start, final, scene.lands(), scene.falls()))
+    out.update(dropped(start, final, getattr(scene, "drops", list)()))
     top = scene.rest_top()
     if top is not None:
         body, height, contacts_below = top
