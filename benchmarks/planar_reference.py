@@ -26,12 +26,16 @@ wall time and the step log's share of it, then per run its steps and, per step, 
 (``ref ms``), the step log's whole cost (``log ms``: the run's own reference solves and checks, and its
 share of the batch's monitors), the check of its own answer (``own us``: velocities and, for a solver
 that exposes them, impulses; ``stackx.bench.error_planar.check_own``), and the steps it could not solve with the
-seconds their solves took (``failed s``); then the solved steps by what landed them (``Solution.attempt``: the
-central path, a warm start's Newton rounds, the fallback's proximal point method or Lemke's pivoting).
-Measured on 2 cores with ``--bench configs/planar/pyramid-10.yaml`` (21 runs of 600 steps) beside another bench:
-139 s wall, 72% of it the step log, nearly all of that the reference solves (from 0.45 ms a step on
-``planar-pgs``'s at 1 iteration to 27 ms on ``planar-xpbd``'s at 4 substeps); the own-answer check 0.02 to 0.3
-ms a step.
+seconds their solves took (``failed s``); then the step log's solves by class with their count and CPU seconds
+(``stackx.solvers.planar.step_problem.ReferenceStep.measure``: ``path``, landed by the paths or a warm start's
+Newton rounds; ``fallback``, by the proximal point method or the walk on the points in doubt; ``cold restart``;
+``whole walk``, Lemke's walk on the whole problem, only with ``--whole-walk``; ``unsolved``), and the second
+solves for the nearest answer (``nearest``, ``nearest missed``). ``--fraction F`` sets the step log's stop
+(``stackx.bench.error_planar.FRACTION``: residual <= max(1e-10, error / F)), to calibrate it; ``--run`` prints
+each run's ``spread`` and how many steps had a second solve (``nearest``).
+Measured with ``--bench configs/planar/pyramid-10.yaml`` (49 runs of 600 steps): 203 s CPU, the reference's
+first solves 78 s and its second solves for the nearest answer 81 s, no step unsolved; docs/bench.md gives
+``pyramid-20``'s and the stop rule's calibration.
 """
 
 from __future__ import annotations
@@ -54,7 +58,6 @@ from stackx.bench.criteria import Criteria
 from stackx.kernel import compiled
 from stackx.bench import error_planar as planar_log
 from stackx.solvers.planar import reference, step_problem
-from stackx.solvers.planar.reference import DOUBT, LEMKE, PATH, WALK, WARM
 from stackx.bench.error_planar import StepLog
 from stackx.run.runner import run_experiment
 
@@ -84,19 +87,17 @@ def measure(path: str, steps: int, solver: str, knob: int | None) -> dict[str, f
     solves: list[float] = []
     failed: list[float] = []  # the seconds of the solves that raised
     work: list[tuple[int, int]] = []
-    plain = step_problem.ReferenceStep._solve
+    plain = step_problem.ReferenceStep.measure
 
     def timed(self: step_problem.ReferenceStep, *args: object) -> object:
         t0 = time.perf_counter()
-        try:
-            found = plain(self, *args)  # type: ignore[arg-type]
-        except reference.ReferenceFailure:
-            failed.append(time.perf_counter() - t0)
-            raise
-        finally:
-            solves.append(time.perf_counter() - t0)
-        work.append((found.rounds, found.sweeps))
-        return found
+        found, how = plain(self, *args)  # type: ignore[arg-type]
+        solves.append(time.perf_counter() - t0)
+        if how == step_problem.UNSOLVED:
+            failed.append(solves[-1])
+        else:
+            work.append((found.rounds, found.sweeps))
+        return found, how
 
     logged: list[float] = []
     own: list[float] = []
@@ -109,14 +110,14 @@ def measure(path: str, steps: int, solver: str, knob: int | None) -> dict[str, f
         finally:
             logged.append(time.perf_counter() - t0)
 
-    def timed_check(*args: object) -> None:
+    def timed_check(*args: object) -> object:
         t0 = time.perf_counter()
         try:
-            plain_check(*args)  # type: ignore[arg-type]
+            return plain_check(*args)  # type: ignore[arg-type]
         finally:
             own.append(time.perf_counter() - t0)
 
-    step_problem.ReferenceStep._solve = timed  # type: ignore[method-assign]
+    step_problem.ReferenceStep.measure = timed  # type: ignore[method-assign]
     planar_log.log_step, planar_log.check_own = timed_log, timed_check  # type: ignore[assignment]
     try:
         log = StepLog(Criteria())
@@ -125,7 +126,7 @@ def measure(path: str, steps: int, solver: str, knob: int | None) -> dict[str, f
             run_experiment(spec, None, log)
         total = time.perf_counter() - t0
     finally:
-        step_problem.ReferenceStep._solve = plain  # type: ignore[method-assign]
+        step_problem.ReferenceStep.measure = plain  # type: ignore[method-assign]
         planar_log.log_step, planar_log.check_own = plain_log, plain_check  # type: ignore[assignment]
     (row,) = log.rows.values()
     timed_solves = solves[1:] or solves  # the first includes loading compiled code
@@ -134,7 +135,8 @@ def measure(path: str, steps: int, solver: str, knob: int | None) -> dict[str, f
             "total_s": sum(solves), "failed_s": sum(failed),
             "rounds": statistics.mean(r for r, _ in work) if work else 0.0,
             "sweeps": statistics.mean(s for _, s in work) if work else 0.0,
-            "unsolved": error["unsolved"], "logged": error["steps"] + error["unsolved"], "rms": error["rms"],
+            "unsolved": error["unsolved"], "logged": error["steps"], "rms": error["rms"], "spread": error["spread"],
+            "nearest": int(row.log.nearest[row.b]),
             "solves": len(solves), "run_s": total,
             "log_ms": 1e3 * statistics.mean(logged[1:] or logged), "own_us": 1e6 * statistics.mean(own[1:] or own)}
 
@@ -155,7 +157,7 @@ def warm_up_checks() -> None:
     violations(problem, *matched(keys, keys[1:], np.ones(problem.points - 1), np.zeros(problem.points - 1)))
 
 
-def bench_costs(path: str, steps: int | None) -> tuple[float, dict[str, dict[str, float]], dict[int, int]]:
+def bench_costs(path: str, steps: int | None) -> tuple[float, dict[str, dict[str, float]], dict[str, list[float]]]:
     """``stackx bench path`` (every solver, one process, the report written to a temporary folder), each run
     cut to ``steps`` (None: the config's): its wall time (s) and per run (by case and run name) the steps
     logged, the steps its reference did not solve and the seconds its reference solves (those failed among
@@ -167,10 +169,10 @@ def bench_costs(path: str, steps: int | None) -> tuple[float, dict[str, dict[str
     names: dict[int, tuple[Any, list[str]]] = {}  # id(batch log) -> (the batch log, kept alive; its run names)
     spent: dict[tuple[int, int], dict[str, float]] = defaultdict(lambda: defaultdict(float))  # (batch, row)
     batch_log: dict[int, float] = defaultdict(float)  # step log seconds per batch
-    current: list[Any] = [None]  # the batch log whose step is being logged
-    landed: dict[int, int] = defaultdict(int)  # the step log's solved steps by the stage that landed them
+    current: list[Any] = [None, 0]  # the batch log whose step is being logged, and the row last measured
+    landed: dict[str, list[float]] = defaultdict(lambda: [0, 0.0])  # by class: [solves, CPU seconds]
     plain_batch, plain_log, plain_check = StepLog.batch, planar_log.log_step, planar_log.check_own
-    plain_solve = step_problem.ReferenceStep._solve
+    plain_measure, plain_nearest = step_problem.ReferenceStep.measure, step_problem.ReferenceStep.nearest
 
     def batch(self: StepLog, runs: list[Any], solver: object = None) -> Any:
         on_step = plain_batch(self, runs, solver)
@@ -187,43 +189,52 @@ def bench_costs(path: str, steps: int | None) -> tuple[float, dict[str, dict[str
             batch_log[id(log)] += time.perf_counter() - t0
             current[0] = None
 
-    def solve(self: Any, b: int, *args: Any) -> Any:
-        t0 = time.perf_counter()
-        try:
-            found = plain_solve(self, b, *args)
-            if current[0] is not None:
-                landed[found.attempt] += 1
-            return found
-        except reference.ReferenceFailure:
-            if current[0] is not None:
-                spent[(id(current[0]), b)]["unsolved"] += 1
-                spent[(id(current[0]), b)]["failed"] += time.perf_counter() - t0
-            raise
-        finally:
-            if current[0] is not None:  # the step log's solves, not planar-exact's own
-                spent[(id(current[0]), b)]["reference"] += time.perf_counter() - t0
+    def measure(self: Any, b: int, *args: Any) -> Any:
+        t0, c0 = time.perf_counter(), time.process_time()
+        current[1] = b
+        found, how = plain_measure(self, b, *args)
+        took = time.perf_counter() - t0
+        landed[how][0] += 1
+        landed[how][1] += time.process_time() - c0
+        row = spent[(id(current[0]), b)]
+        row["reference"] += took
+        if how == step_problem.UNSOLVED:
+            row["unsolved"] += 1
+            row["failed"] += took
+        return found, how
 
-    def check_own(log: Any, b: int, *args: Any) -> None:
+    def nearest(self: Any, *args: Any) -> Any:
+        t0, c0 = time.perf_counter(), time.process_time()
+        found = plain_nearest(self, *args)
+        landed["nearest" if found is not None else "nearest missed"][0] += 1
+        landed["nearest" if found is not None else "nearest missed"][1] += time.process_time() - c0
+        spent[(id(current[0]), current[1])]["reference"] += time.perf_counter() - t0
+        return found
+
+    def check_own(log: Any, b: int, *args: Any) -> Any:
         t0 = time.perf_counter()
         try:
-            plain_check(log, b, *args)
+            return plain_check(log, b, *args)
         finally:
             spent[(id(log), b)]["own"] += time.perf_counter() - t0
 
     warm_up_checks()
     StepLog.batch = batch  # type: ignore[method-assign]
     planar_log.log_step, planar_log.check_own = log_step, check_own  # type: ignore[assignment]
-    step_problem.ReferenceStep._solve = solve  # type: ignore[method-assign]
+    step_problem.ReferenceStep.measure = measure  # type: ignore[method-assign]
+    step_problem.ReferenceStep.nearest = nearest  # type: ignore[method-assign]
     try:
         with tempfile.TemporaryDirectory() as folder:
-            t0 = time.perf_counter()
+            t0, c0 = time.perf_counter(), time.process_time()
             results = bench([path], None, Path(folder) / "bench", quiet=True,
                             sets=None if steps is None else [f"steps={steps}"])
             wall = time.perf_counter() - t0
+            landed["the whole bench's CPU"] = [1, time.process_time() - c0]
     finally:
         StepLog.batch = plain_batch  # type: ignore[method-assign]
         planar_log.log_step, planar_log.check_own = plain_log, plain_check  # type: ignore[assignment]
-        step_problem.ReferenceStep._solve = plain_solve  # type: ignore[method-assign]
+        step_problem.ReferenceStep.measure = plain_measure  # type: ignore[method-assign]
+        step_problem.ReferenceStep.nearest = plain_nearest  # type: ignore[method-assign]
     case = results[0].name if results else Path(path).stem
     runs: dict[str, dict[str, float]] = defaultdict(lambda: defaultdict(float))
     for key, (log, run_names) in names.items():
@@ -236,7 +247,7 @@ def bench_costs(path: str, steps: int | None) -> tuple[float, dict[str, dict[str
             run["unsolved"] += row["unsolved"]
             run["failed"] += row["failed"]
             run["log"] += row["reference"] + row["own"] + rest / len(run_names)
-    return wall, runs, dict(sorted(landed.items()))
+    return wall, runs, dict(landed)
 
 
 def bench_main(path: str, steps: int | None) -> None:
@@ -254,16 +265,16 @@ def bench_main(path: str, steps: int | None) -> None:
         n = max(r["steps"], 1)
         print(f"{name:<56}{r['steps']:>7.0f}{1e3 * r['reference'] / n:>9.2f}{1e3 * r['log'] / n:>9.2f}"
               f"{1e6 * r['own'] / n:>9.0f}{r['unsolved']:>9.0f}{r['failed']:>9.1f}")
-    print(f"solved steps by what landed them (``Solution.attempt``): {landed.get(PATH, 0)} the central path, "
-          f"{landed.get(WARM, 0)} a warm start's Newton rounds, {landed.get(WALK, 0)} the proximal point method, "
-          f"{landed.get(DOUBT, 0)} Lemke's walk on the points in doubt, {landed.get(LEMKE, 0)} Lemke's pivoting")
+    print("the step log's reference solves by class (solves, CPU s): "
+          + ", ".join(f"{how} {n:.0f} ({cpu:.1f} s)" for how, (n, cpu) in sorted(landed.items())))
 
 
 def line(name: str, m: dict[str, float]) -> str:
     rms = "-" if m["rms"] is None else f"{m['rms']:.4g}"
+    spread = "-" if m["spread"] is None else f"{m['spread']:.2g}"
     return (f"{name:<52}{m['median_ms']:>10.1f}{m['max_ms']:>10.1f}{m['total_s']:>9.1f}{m['rounds']:>8.1f}"
             f"{m['sweeps']:>8.0f}{m['unsolved']:>6d}/{m['logged']:<5d}{m['failed_s']:>9.1f}{rms:>10}{m['log_ms']:>9.1f}"
-            f"{m['own_us']:>8.0f}")
+            f"{m['own_us']:>8.0f}{spread:>9}{m['nearest']:>8d}")
 
 
 def main() -> None:
@@ -277,14 +288,21 @@ def main() -> None:
                         help="the reference's proximal weight d (what it trades: reference.py's module text)")
     parser.add_argument("--bench", metavar="CONFIG",
                         help="time a whole 'stackx bench CONFIG' in this process instead, each run cut to --steps")
+    parser.add_argument("--whole-walk", action="store_true",
+                        help="end each measured solve that misses with Lemke's walk on the whole problem (to see "
+                             "what it lands and costs)")
+    parser.add_argument("--fraction", type=float, default=planar_log.FRACTION,
+                        help="the step log's stop: residual <= max(1e-10, error / FRACTION) (docs/bench.md)")
     args = parser.parse_args()
+    planar_log.FRACTION = args.fraction
     reference.PROXIMAL = args.proximal
+    step_problem.WHOLE_WALK = args.whole_walk
     if args.bench:
         bench_main(args.bench, args.steps)
         return
     args.steps = 60 if args.steps is None else args.steps
     print(f"{'run':<52}{'ms/solve':>10}{'max ms':>10}{'total s':>9}{'rounds':>8}{'sweeps':>8}{'unsolved':>12}"
-          f"{'failed s':>9}{'rms m/s':>10}{'log ms':>9}{'own us':>8}")
+          f"{'failed s':>9}{'rms m/s':>10}{'log ms':>9}{'own us':>8}{'spread':>9}{'nearest':>8}")
     if args.run:
         for path, solver, knob in args.run:
             m = measure(path, args.steps, solver, None if knob == "-" else int(knob))

@@ -198,15 +198,20 @@ def backtrack(merit: Callable[[np.ndarray], float], q: np.ndarray, target: np.nd
     return None
 
 
+Tolerance = float | Callable[[np.ndarray], float]  # m/s, or the tolerance for a candidate's velocities (n, 3)
+
+
 def solve(problem: ContactProblem, pn: np.ndarray | None = None, pt: np.ndarray | None = None,
-          tolerance: float = TOLERANCE, sweeps: int = SWEEPS, rounds: int = ROUNDS, quick: bool = False,
+          tolerance: Tolerance = TOLERANCE, sweeps: int = SWEEPS, rounds: int = ROUNDS, quick: bool = False,
           interior: bool = True) -> Solution:
     """Solve ``problem`` to ``residual < tolerance`` (m/s), starting from impulses ``pn``, ``pt`` (a warm
     start, e.g. the last step's by feature; zeros when None): the warm start's own Newton rounds, the central
-    path, and where no path lands, the fallback (see the module text). ``quick``: the fallback without Lemke's
-    walks on the whole problem, which cost the most (see ``step_problem.ReferenceStep``: after steps in a row
-    that nothing landed). ``interior=False`` leaves the paths out (the fallback alone). Raises
-    ``ReferenceFailure`` when nothing gets there."""
+    path, and where no path lands, the fallback (see the module text). ``tolerance`` may be a callable giving
+    the tolerance for a candidate answer's velocities (the bench's stop tied to what it measures:
+    ``stackx.bench.error_planar``); a candidate is taken once its residual is below what it gives there.
+    ``quick``: the fallback without Lemke's walks on the whole problem, which cost the most (see
+    ``step_problem.ReferenceStep``: after steps in a row that nothing landed). ``interior=False`` leaves the
+    paths out (the fallback alone). Raises ``ReferenceFailure`` when nothing gets there."""
     m, n = problem.points, problem.bodies
     pn = np.zeros(m) if pn is None else np.array(pn, dtype=np.float64)
     pt = np.zeros(m) if pt is None else np.array(pt, dtype=np.float64)
@@ -223,6 +228,18 @@ def solve(problem: ContactProblem, pn: np.ndarray | None = None, pt: np.ndarray 
     args = (problem.body_a, problem.body_b, problem.normal, problem.ra, problem.rb, problem.friction,
             problem.target, problem.inv_mass, problem.inv_inertia, kn, kt)
     swept = 0
+
+    def allowed(pn: np.ndarray, pt: np.ndarray, velocity: np.ndarray | None = None) -> float:
+        """The tolerance for the answer of impulses ``pn``, ``pt`` (velocities ``velocity`` when known)."""
+        if not callable(tolerance):
+            return tolerance
+        return tolerance(velocities_after(problem, pn, pt) if velocity is None else velocity)
+
+    def within(q: np.ndarray, now: float) -> bool:
+        """Whether a merit of ``now`` at scaled impulses ``q`` is below the tolerance there (worth a look)."""
+        if not callable(tolerance):
+            return now < tolerance
+        return now < TOLERANCE or (now < np.inf and now < allowed(q[:m] * kn, q[m:] * kt))
 
     def sweep(q: np.ndarray, limit: float) -> np.ndarray:
         """Projected Gauss-Seidel from ``q`` (projected first) until its residual is below ``limit`` or
@@ -252,7 +269,11 @@ def solve(problem: ContactProblem, pn: np.ndarray | None = None, pt: np.ndarray 
         the tolerance (after ``rounds`` Newton rounds), else None."""
         pn, pt = q[:m] * kn, q[m:] * kt
         score = residual(problem, pn, pt)
-        return Solution(pn, pt, velocities_after(problem, pn, pt), score, rounds, swept) if score < tolerance else None
+        if not callable(tolerance):
+            return (Solution(pn, pt, velocities_after(problem, pn, pt), score, rounds, swept) if score < tolerance
+                    else None)
+        velocity = velocities_after(problem, pn, pt)
+        return Solution(pn, pt, velocity, score, rounds, swept) if score < allowed(pn, pt, velocity) else None
 
     def attempt(q: np.ndarray, rounds: int) -> tuple[Solution | None, float]:
         """Damped Newton rounds from ``q`` (swept first unless already near): each round's step is taken if it
@@ -264,7 +285,7 @@ def solve(problem: ContactProblem, pn: np.ndarray | None = None, pt: np.ndarray 
             now = newton.merit(q)
         best = now
         for done in range(rounds + 1):
-            found = landed(q, done) if now < tolerance else None
+            found = landed(q, done) if within(q, now) else None
             if found is not None:
                 return found, found.residual
             if done == rounds:
@@ -299,7 +320,7 @@ def solve(problem: ContactProblem, pn: np.ndarray | None = None, pt: np.ndarray 
         for done in range(rounds):
             q = newton.step(q, slide)
             now = newton.merit(q)
-            found = landed(q, done + 1) if now < tolerance else None
+            found = landed(q, done + 1) if within(q, now) else None
             if found is not None:
                 return found, found.residual
             if not np.isfinite(now):
@@ -374,7 +395,7 @@ def solve(problem: ContactProblem, pn: np.ndarray | None = None, pt: np.ndarray 
             reached = system.merit(q)
             best = min(best, reached)
             near(q, reached)
-            if reached < TOLERANCE:
+            if reached < TOLERANCE if not callable(tolerance) else within(q, reached):
                 found = landed(q, spent)
                 if found is not None:
                     return found, found.residual
@@ -489,7 +510,8 @@ def solve(problem: ContactProblem, pn: np.ndarray | None = None, pt: np.ndarray 
               + ["Lemke's walk on the points in doubt"] * doubt + ["Lemke's pivoting"] * (not quick))
     tried = " or ".join(filter(None, [", ".join(stages[:-1]), stages[-1]]))
     best = min(best, closest[0])
-    raise ReferenceFailure(f"the contact problem ({m} points, {n} bodies) was not solved to {tolerance:g} m/s by "
+    stop = f"{tolerance:g}" if not callable(tolerance) else f"{allowed(kept_pn, kept_pt):g}"
+    raise ReferenceFailure(f"the contact problem ({m} points, {n} bodies) was not solved to {stop} m/s by "
                            f"{tried} ({swept} sweeps): best residual {best:.3g} m/s", best, kept_pn, kept_pt)
 
 

@@ -19,7 +19,15 @@ again. That may leave more steps unsolved, never a wrong answer: every unsolved 
 the error, and a run with any is kept out of speed-against-error plots, fronts and winners. The rule depends
 only on the run's own steps, so the same run gives the same counts. A failed solve whose best residual is below
 ``NEAR_MISS`` (1e-8 m/s, against the tolerance of 1e-10) shows the fallback working on this run, so it does not
-count toward ``MISSES``.
+count toward ``MISSES``. That is ``planar-exact``'s solve (``solve``).
+
+**A step solved to be measured** (``measure``, the bench's step log): to the tolerance the measurement asks
+(``stackx.bench.error_planar.stop_rule``), and where that misses once more from zero impulses (a cold restart:
+the paths' Newton rounds then reach other closest answers; on recorded pyramid-20 steps three of eleven missed
+steps landed so). On a problem over ``pivoting.EXACT_POINTS`` points Lemke's walk on the whole problem is left
+out (``WHOLE_WALK``): with the measured stop no step of the calibration runs or of the pyramid benches needed
+it, and where it ran before it landed 2 of 18 steps at 13 to 19 s each. A step that still misses keeps the
+closest answer either solve reached, which the bench measures and counts.
 """
 
 from __future__ import annotations
@@ -28,8 +36,9 @@ import numpy as np
 
 from stackx.kernel import compiled, enabled, kernel
 from stackx.models.planar.monitor import contact_room
+from stackx.solvers.planar import pivoting
 from stackx.solvers.planar.problem import ContactProblem, residual, velocities_after
-from stackx.solvers.planar.reference import ReferenceFailure, Solution, solve
+from stackx.solvers.planar.reference import PATH, WARM, ReferenceFailure, Solution, Tolerance, solve
 from stackx.models.planar.state import PlanarState
 from stackx.solvers.planar.contacts import (A, B, DEPTH, MU, NX, NY, PN, PT, RAX, RAY, RBX, RBY, TARGET,
                                             contact_workspace, find_contacts, gravity, prepare, recall, remember,
@@ -37,6 +46,10 @@ from stackx.solvers.planar.contacts import (A, B, DEPTH, MU, NX, NY, PN, PT, RAX
 
 MISSES = 3  # failed solves in a row after which a row's solves are quick
 NEAR_MISS = 1e-8  # m/s: a failed solve whose best residual is below this does not count toward MISSES
+# how a measured step's answer came (``ReferenceStep.measure``): the paths or a warm start's Newton rounds, the
+# fallback (the proximal point method, Lemke's walk on the points in doubt), the cold restart, none
+LANDED, FALLBACK, COLD, WHOLE, UNSOLVED = "path", "fallback", "cold restart", "whole walk", "unsolved"
+WHOLE_WALK = False  # a measured solve of a large problem ends with Lemke's walk on the whole (off: not worth it)
 
 
 @kernel
@@ -108,14 +121,23 @@ class ReferenceStep:
             return self._solve(b, x, y, angle, vx, vy, w, inv_mass, inv_inertia, hx, hy, friction, g, dt,
                                speculative)
 
-    def _solve(self, b: int, x: np.ndarray, y: np.ndarray, angle: np.ndarray, vx: np.ndarray, vy: np.ndarray,
-               w: np.ndarray, inv_mass: np.ndarray, inv_inertia: np.ndarray, hx: np.ndarray, hy: np.ndarray,
-               friction: np.ndarray, g: float, dt: float, speculative: float) -> Solution:
+    def _gather(self, b: int, x: np.ndarray, y: np.ndarray, angle: np.ndarray, vx: np.ndarray, vy: np.ndarray,
+                w: np.ndarray, inv_mass: np.ndarray, inv_inertia: np.ndarray, hx: np.ndarray, hy: np.ndarray,
+                friction: np.ndarray, g: float, dt: float, speculative: float) -> ContactProblem:
+        """Row ``b``'s step problem into ``self.problem``, its remembered impulses in the table's ``PN``, ``PT``."""
         vy = vy.copy()
         self.ids, self.table, count = gather(x, y, angle, vy, inv_mass, inv_inertia, hx, hy, friction, g, dt,
                                              speculative, self.ids, self.table, self.keys[b], self.carried[b],
                                              int(self.held[b]))
-        self.problem = problem = as_problem(self.ids, self.table, count, inv_mass, inv_inertia, vx, vy, w)
+        self.problem = as_problem(self.ids, self.table, count, inv_mass, inv_inertia, vx, vy, w)
+        return self.problem
+
+    def _solve(self, b: int, x: np.ndarray, y: np.ndarray, angle: np.ndarray, vx: np.ndarray, vy: np.ndarray,
+               w: np.ndarray, inv_mass: np.ndarray, inv_inertia: np.ndarray, hx: np.ndarray, hy: np.ndarray,
+               friction: np.ndarray, g: float, dt: float, speculative: float) -> Solution:
+        problem = self._gather(b, x, y, angle, vx, vy, w, inv_mass, inv_inertia, hx, hy, friction, g, dt,
+                               speculative)
+        count = problem.points
         try:
             found = solve(problem, self.table[:count, PN], self.table[:count, PT], quick=self.missed[b] >= MISSES)
         except ReferenceFailure as failure:
@@ -125,6 +147,52 @@ class ReferenceStep:
         self.missed[b] = 0
         self.keep(b, count, found)
         return found
+
+    def measure(self, b: int, tolerance: Tolerance, *state: object) -> tuple[Solution, str]:
+        """Row ``b``'s step (``state``: the arguments of ``solve`` after ``b``) solved for a measurement: to
+        ``tolerance`` (the bench's stop tied to the error it measures), by the paths and the fallback (on a
+        problem over ``pivoting.EXACT_POINTS`` points without Lemke's walk on the whole, which costs seconds
+        there; below, it costs milliseconds and stays), then where that misses from zero impulses (a cold restart), and
+        where that misses too the closest answer either reached (``closest``). Returns the answer and how it
+        came (``LANDED``, ``FALLBACK``, ``COLD``, ``WHOLE``, ``UNSOLVED``); the answer is remembered for the
+        row's next step either way. Depends only on the row's own steps, never on how many failed before."""
+        with compiled(enabled()):  # compiled unless STACKX_JIT=0, however small the run it measures
+            problem = self._gather(b, *state)  # type: ignore[arg-type]
+            count = problem.points
+            warm = self.table[:count, PN].copy(), self.table[:count, PT].copy()
+            starts = [(warm, LANDED)] + ([((None, None), COLD)] if warm[0].any() or warm[1].any() else [])
+            large = count > pivoting.EXACT_POINTS  # where the walk on the whole is regularized, and costs seconds
+            failures = []
+            for (pn, pt), how in starts:
+                try:
+                    found = solve(problem, pn, pt, tolerance=tolerance, quick=large)
+                except ReferenceFailure as failure:
+                    failures.append(failure)
+                    continue
+                if how == LANDED and found.attempt not in (PATH, WARM):
+                    how = FALLBACK
+                self.keep(b, count, found)
+                return found, how
+            if WHOLE_WALK and large:
+                try:
+                    found = solve(problem, *warm, tolerance=tolerance, interior=False)
+                    self.keep(b, count, found)
+                    return found, WHOLE
+                except ReferenceFailure as failure:
+                    failures.append(failure)
+            return self.closest(b, min(failures, key=lambda f: f.best)), UNSOLVED
+
+    def nearest(self, pn: np.ndarray, pt: np.ndarray, tolerance: Tolerance) -> Solution | None:
+        """An exact answer of the last problem near impulses ``pn``, ``pt`` (a solver's own): the proximal point
+        method from them (no central path, whose end does not depend on where it starts; no Lemke's walk on the
+        whole problem), which walks to an answer near its start; None where it misses. Nothing is remembered."""
+        problem = self.problem
+        assert problem is not None
+        with compiled(enabled()):
+            try:
+                return solve(problem, pn, pt, tolerance=tolerance, quick=True, interior=False)
+            except ReferenceFailure:
+                return None
 
     def closest(self, b: int, failure: ReferenceFailure) -> Solution:
         """Row ``b``'s last solve, which raised ``failure``, answered by the closest impulses it found (zero
