@@ -2,11 +2,12 @@
 the run of each solver that a report shows.
 
 Only the case's own settings count here (a claim's baseline runs are compared in ``claims``). Speed and
-error are drawn for every run that neither blew up nor was crushed, but fronts and winners are chosen only
-among runs that **passed** the case: a run that is fast and accurate step by step yet leaves the column sunk,
-moving or launched is no answer to the case, and letting it win would recommend a setting that fails. The
-reference never competes: ``exact`` is what the error is measured against, so its error is zero by
-definition, not by merit (the report shows its time beside the winners instead).
+error are drawn for every run that neither blew up nor was crushed (a run with steps the reference left
+unsolved included: its error is measured against the reference's best answer there, and says so), but fronts
+and winners are chosen only among runs that **passed** the case: a run that is fast and accurate step by step
+yet leaves the column sunk, moving or launched is no answer to the case, and letting it win would recommend a
+setting that fails. The reference never competes: ``exact`` is what the error is measured against, so its
+error is zero by definition, not by merit (the report shows its time beside the winners instead).
 
 Times are compared with a tolerance: two figures within ``TIE`` of each other are the same cost, since a
 timing on a shared machine moves by that much between benches (``stackx.bench.timing``). A run leaves the
@@ -16,6 +17,12 @@ The front keeps a run unless another beats it even with both times moved against
 spread, at least ``NOISE``), and marks it ``borderline`` when the noise could go either way, so two benches
 agree on the front unless a figure moved beyond its noise; any front or winner that rests on a figure flagged
 unstable says so.
+
+Errors are compared beside their uncertainty (``stackx.bench.uncertainty``): two runs whose error intervals
+overlap are tied on error and the cheaper beats the other, as runs of equal error do; a run is more accurate
+than another only when its interval lies wholly below; an error level is reached when the run's stated error,
+``max(rms, spread)``, is at most it. So an error within its spread never wins on a number the measurement
+cannot tell from zero, and with every spread 0 the comparison is that of the RMS errors.
 """
 
 from __future__ import annotations
@@ -28,6 +35,7 @@ from typing import Any
 from stackx.bench.plan import CASE
 from stackx.bench.sweep import Record
 from stackx.bench.criteria import word
+from stackx.bench.uncertainty import at_least_as_accurate, more_accurate, reaches, spread, stated, unsolved
 
 TARGETS = (1e-1, 1e-2, 1e-3, 1e-4, 1e-6)  # error levels (m/s) at which solvers are compared at equal cost
 TIE = 0.2  # times within this share of each other are the same cost
@@ -120,11 +128,11 @@ def matrix(records: Iterable[Record]) -> dict[str, dict[str, Cell]]:
 
 
 def measured(records: Iterable[Record]) -> list[Record]:
-    """Records to draw on speed and error: timed, with an error against the exact solver at every step (none
-    the reference left unsolved: an error missing steps may miss the worst), neither blown up nor crushed, and
+    """Records to draw on speed and error: timed, with an error against the exact solver (steps the reference
+    left unsolved measured against its best answer, and marked where shown), neither blown up nor crushed, and
     not the reference itself (passed or not)."""
     return [r for r in case_records(records) if r.us_per_step is not None and r.error.get("rms") is not None
-            and not r.error.get("unsolved") and not r.broke and not r.reference]
+            and not r.broke and not r.reference]
 
 
 def contenders(records: Iterable[Record]) -> list[Record]:
@@ -138,13 +146,14 @@ def noise(rec: Record) -> float:
 
 
 def dominates(a: Record, b: Record, lean: int = 0) -> bool:
-    """Whether run ``a`` beats ``b`` on speed against error: at least as accurate and clearly faster, or more
-    accurate and not clearly slower (times within ``TIE`` are the same cost). ``lean`` moves both times by
-    their noise: +1 in ``a``'s favour (``a`` as fast as it could be, ``b`` as slow), -1 against it."""
+    """Whether run ``a`` beats ``b`` on speed against error: at least as accurate (tied on error included:
+    ``stackx.bench.uncertainty``) and clearly faster, or more accurate beyond both uncertainties and not
+    clearly slower (times within ``TIE`` are the same cost). ``lean`` moves both times by their noise: +1 in
+    ``a``'s favour (``a`` as fast as it could be, ``b`` as slow), -1 against it."""
     ta = a.us_per_step * (1.0 - lean * noise(a))  # type: ignore[operator]
     tb = b.us_per_step * (1.0 + lean * noise(b))  # type: ignore[operator]
-    ea, eb = a.error["rms"], b.error["rms"]
-    return (ea <= eb and clearly_faster(ta, tb)) or (ea < eb and not clearly_faster(tb, ta))
+    return ((at_least_as_accurate(a, b) and clearly_faster(ta, tb))
+            or (more_accurate(a, b) and not clearly_faster(tb, ta)))
 
 
 def pareto(records: Iterable[Record]) -> list[Record]:
@@ -154,7 +163,7 @@ def pareto(records: Iterable[Record]) -> list[Record]:
     put it either side."""
     runs = contenders(records)
     front = [r for r in runs if not any(dominates(o, r, lean=-1) for o in runs if o is not r)]
-    return sorted(front, key=lambda r: (r.us_per_step, r.error["rms"]))  # type: ignore[arg-type, return-value]
+    return sorted(front, key=lambda r: (r.us_per_step, stated(r)))  # type: ignore[arg-type, return-value]
 
 
 def borderline(rec: Record, records: Iterable[Record]) -> bool:
@@ -163,18 +172,20 @@ def borderline(rec: Record, records: Iterable[Record]) -> bool:
 
 
 def cheapest(records: Iterable[Record], target: float) -> dict[str, Record]:
-    """Per solver, the fastest run that passed with an error of at most ``target``."""
+    """Per solver, the fastest run that passed and reaches ``target``: its stated error (its RMS, or its
+    uncertainty where the RMS is within it) at most ``target``."""
     out: dict[str, Record] = {}
     for r in sorted(contenders(records), key=lambda r: r.us_per_step):  # type: ignore[arg-type, return-value]
-        if r.error["rms"] <= target:
+        if reaches(r, target):
             out.setdefault(r.solver, r)
     return out
 
 
 def equal_cost(records: list[Record], targets: Iterable[float] = TARGETS) -> list[dict[str, Any]]:
     """For each error level: which solver reaches it with the fewest microseconds per step in a run that passed,
-    the solvers tied with it (within ``TIE``), whether any of those rest on an unstable timing, and the
-    others'."""
+    the solvers tied with it (within ``TIE``), whether any of those rest on an unstable timing, which carry
+    steps the reference left unsolved, and the others' (each with its error, ``error_spread`` its
+    uncertainty and ``unsolved`` its unsolved steps)."""
     rows = []
     for target in targets:
         by_solver = cheapest(records, target)
@@ -184,8 +195,11 @@ def equal_cost(records: list[Record], targets: Iterable[float] = TARGETS) -> lis
                      "winner": ranked[0].solver if ranked else None,
                      "tied": [r.solver for r in tied],
                      "unstable": [r.solver for r in ranked[:1 + len(tied)] if unstable(r)],
+                     "unsolved": [r.solver for r in ranked[:1 + len(tied)] if unsolved(r.error)],
                      "solvers": [{"solver": r.solver, "knob": r.knob, "value": r.value, "us_per_step": r.us_per_step,
-                                  "spread": r.timing.get("spread"), "error": r.error["rms"]} for r in ranked]})
+                                  "spread": r.timing.get("spread"), "error": r.error["rms"],
+                                  "error_spread": spread(r.error), "unsolved": unsolved(r.error)}
+                                 for r in ranked]})
     return rows
 
 

@@ -6,8 +6,10 @@ for each case the cheapest solver that passes, its time and error, and why each 
 follows as a collapsible section (closed; a link to ``#CASE`` opens it): its settings, its runs against time,
 for a planar case its start and final states drawn (``stackx.bench.snapshots``), the equal-cost winners and
 the Pareto front beside a link to its plot, and a table of every run. Then what spans the cases (the stability
-matrix, steps to recover and to settle, the lab's claims) and the definitions. Every sentence about an outcome is
-generated from the records; the fixed text only defines the measures. Column headers carry their units.
+matrix, steps to recover and to settle, the lab's claims) and the definitions. An error reads with its
+uncertainty and the steps the reference left unsolved (``stackx.bench.uncertainty``), and the front says which
+of its runs carry either. Every sentence about an outcome is generated from the records; the fixed text only
+defines the measures. Column headers carry their units.
 """
 
 from __future__ import annotations
@@ -23,6 +25,7 @@ from stackx.bench.sweep import Record
 from stackx.bench.criteria import NAMES
 from stackx.bench.figures import error_text, plain_note, steppings, timed
 from stackx.bench.stepping import COMPILED
+from stackx.bench.uncertainty import carrying_unsolved, spread as uncertainty_spread, unsolved, within
 
 CSS = """
 body { font: 14px/1.45 system-ui, sans-serif; margin: 1.5em auto; max-width: 1250px; color: #222; padding: 0 1em; }
@@ -138,10 +141,11 @@ def _equal_cost_html(res: CaseResult) -> str:
             rows.append([td(f"{row['target']:g}"), td("no passing run reaches it", "l"), td("-"), td("-", "l")])
             continue
         win = ranked[0]
-        others = "; ".join(f"{label(s['solver'], s['knob'], s['value'])} {_us(s)}"
+        others = "; ".join(f"{label(s['solver'], s['knob'], s['value'])} {_us(s)}{_unsolved(s)}"
                            + (" (tied)" if s["solver"] in row["tied"] else "") for s in ranked[1:])
         shaky = f" unstable timing: {', '.join(row['unstable'])}" if row["unstable"] else ""
-        rows.append([td(f"{row['target']:g}"), f'<td class="l">{swatch(win["solver"])}{esc(_knob(win))}{esc(shaky)}</td>',
+        rows.append([td(f"{row['target']:g}"), f'<td class="l">{swatch(win["solver"])}{esc(_knob(win))}'
+                     f'{esc(_unsolved(win))}{esc(shaky)}</td>',
                      td(_us(win)), td(others or "-", "l")])
     text = table(["error ≤ (m/s)", "fastest to reach it, among runs that passed", "µs per step",
                   "others that reach it, slower (µs per step; tied: within the tolerance)"], rows)
@@ -158,6 +162,23 @@ def _us(row: dict[str, object]) -> str:
     return f"{row['us_per_step']:.3g}" + (f" +{100 * spread:.0f}%" if isinstance(spread, float) else "")
 
 
+def _unsolved(row: dict[str, object]) -> str:
+    """`` (3 steps unsolved)`` after a winner's or another's name where its error holds steps the reference left
+    unsolved; empty otherwise."""
+    n = row.get("unsolved")
+    return f" ({n} step{'s' if n != 1 else ''} unsolved)" if isinstance(n, int) and n else ""
+
+
+def _front_run(rec: Record, records: list[Record]) -> str:
+    """A run on the front as the page names it: its label, its error where within its uncertainty
+    (``<= 0.0024``) or where it holds unsolved steps, and ``borderline`` where another bench may leave it
+    off."""
+    text = label(rec.solver, rec.knob, rec.value)
+    if within(rec.error) or unsolved(rec.error):
+        text += f" at error {error_text(rec, ' m/s')}"
+    return text + (" (borderline)" if borderline(rec, records) else "")
+
+
 def _knob(row: dict[str, object]) -> str:
     return f" ({row['knob']} {row['value']})" if row["knob"] else ""
 
@@ -171,7 +192,7 @@ def _verdict(res: CaseResult) -> str:
     best = passing[0]
     ties = tied_with(best, shown_runs)
     tie = f" (tied within {100 * TIE:.0f}% with {', '.join(r.solver for r in ties)})" if ties else ""
-    ref = " (the reference)" if best.reference else f", error {error_text(best)} m/s"
+    ref = " (the reference)" if best.reference else f", error {error_text(best, ' m/s')}"
     how = steppings(res).get(best.solver, COMPILED)
     return (f"cheapest that passes: {label(best.solver, best.knob, best.value)}{ref}, {timed(best, how)} µs per "
             f"step{tie}; {len(passing)} of {len(shown_runs)} solvers pass")
@@ -257,13 +278,19 @@ def _case_html(res: CaseResult, pictures: dict[str, str], states: list[Snapshot]
         parts.append("<p class=note>No plot: no run has both a time and an error against the exact solver.</p>")
     parts.append("<h3>Equal cost</h3>" + _equal_cost_html(res))
     if res.front:
-        front = ", ".join(label(r.solver, r.knob, r.value) + (" (borderline)" if borderline(r, res.records) else "")
-                          for r in res.front)
+        front = "; ".join(_front_run(r, res.records) for r in res.front)
         shaky = [label(r.solver, r.knob, r.value) for r in res.front if unstable(r)]
         rests = (f" It rests on unstable timings ({', '.join(shaky)}): another bench may draw it otherwise."
                  if shaky else f" Every time on it is stable; times within {100 * TIE:.0f}% count as the same cost,"
                  " and a run stays on it unless beaten beyond the timings' noise (borderline: another bench may "
                  "leave it off).")
+        rests += (" Errors whose intervals (the error less and plus its uncertainty) overlap are tied: the "
+                  "cheaper run is the front's; an error within its uncertainty reads '<= u'."
+                  if any(uncertainty_spread(r.error) for r in res.front) else "")
+        carrying = carrying_unsolved(res.front)
+        if carrying:
+            rests += (f" {len(carrying)} of its runs carry steps the reference left unsolved, measured against its "
+                      "best answer there.")
         parts.append(f"<p class=note>Pareto front of the runs that passed, fastest first: {esc(front)}.{esc(rests)}</p>")
     else:
         parts.append("<p class=note>No Pareto front: no run that passed has both a time and an error.</p>")
@@ -288,9 +315,11 @@ def _speed_html(results: list[CaseResult], pictures: dict[str, dict[str, str]]) 
         return ""
     return ("<details open class=speed><summary><h2>Speed against error</h2></summary>"
             "<p class=note>Each run timed and measured against the reference, log-log: microseconds per step "
-            "across, RMS error (m/s) up; filled markers passed the case, hollow failed; the reference is the "
-            "vertical line at its time per step. Lower left answers a case: as accurate for less time. Each "
-            "case's section has the Pareto front and the fastest solver to reach each error level.</p>"
+            "across, RMS error (m/s) up; filled markers passed the case, hollow failed; a diamond carries steps "
+            "the reference left unsolved (measured against its best answer); an error within its uncertainty "
+            "is drawn at the uncertainty with an arrow down ('<='), others with a thin bar spanning it; the "
+            "reference is the vertical line at its time per step. Lower left answers a case: as accurate for "
+            "less time. Each case's section has the Pareto front and the fastest solver to reach each error level.</p>"
             f'<div class="speeds">{"".join(figures)}</div></details>')
 
 

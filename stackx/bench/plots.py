@@ -13,7 +13,12 @@ from ``stackx.bench.palette`` in every picture.
   of the axis, just under the smallest error above it, so the axis spans only the errors that differ.
   Markers that would land on each other (two solvers with the same error at nearly the same speed, as when
   both solve every step exactly) are drawn as concentric rings: each is widened by ``RING`` points for every
-  marker drawn over it, so no solver's run is hidden under another's.
+  marker drawn over it, so no solver's run is hidden under another's. Errors read beside their uncertainty
+  (``stackx.bench.uncertainty``): a run is drawn at its stated error, ``max(rms, spread)``; one within its
+  uncertainty carries an arrow down from it (``<=``: it may lie anywhere below), so no picture ranks runs
+  inside the uncertainty, and one above it a thin vertical bar over its interval, ``rms ± spread``. A run
+  with steps the reference left unsolved is a diamond (``UNSOLVED_MARK``) instead of a circle; both marks are
+  named in the legend when drawn.
 - **Against time**, one per case: two small panels side by side, the top box's height and the largest
   contact depth, one line per solver at the knob value the summary shows (``compare.chosen``): solid
   where it passed, dashed where it failed, with the rigid rest height and the depth limit as dotted lines.
@@ -30,11 +35,15 @@ from typing import Any
 from stackx.bench.compare import case_records, label, measured, pareto
 from stackx.bench.palette import colour
 from stackx.bench.sweep import Record
+from stackx.bench.uncertainty import interval, stated, unsolved, within
 
 AS_EXACT = 1e-12  # m/s: an RMS error below this is the rounding of two ways to the same solve
 DEPTH_FLOOR = 0.01  # share of the depth limit below which a depth is drawn at the bottom of its log axis
 MARKER = 6.0  # points: the size of a speed plot's marker
 RING = 3.5  # points: how much a marker widens for each marker of another solver drawn over it
+UNSOLVED_MARK = "D"  # a run whose error holds steps the reference left unsolved
+BELOW_MARK = 11  # matplotlib's caret down (base at the point): the end of a '<=' arrow
+BELOW = 2.2  # how many times below its uncertainty a '<=' arrow reaches on the log axis
 
 
 def _pyplot() -> Any:
@@ -77,14 +86,16 @@ def _closed_png(fig: Any) -> bytes | None:
 def speed_error_figure(title: str, records: list[Record]) -> Any:
     """The speed-against-error plot of one case as a matplotlib figure (the caller closes it), or None when
     no run has both a time and an error. Each solver's line is labelled with its name; each run's marker is
-    a line of one point, its spread (the median repeat) a thin bar to its right."""
+    a line of one point (``run_marker``) at its stated error, its timing spread (the median repeat) a thin bar
+    to its right, its error's uncertainty an arrow down or a bar up and down (``_uncertainty``)."""
     points = measured(records)
     if not points:
         return None
     plt = _pyplot()
-    errors = [float(r.error["rms"]) for r in points]
+    errors = [stated(r) for r in points]
     differing = [e for e in errors if e >= AS_EXACT]
-    low, high = (min(differing), max(differing)) if differing else (1e-3, 1e-3)
+    arrows = [e / BELOW for r, e in zip(points, errors) if within(r.error) and e >= AS_EXACT]  # '<=' ends
+    low, high = (min(differing + arrows), max(differing)) if differing else (1e-3, 1e-3)
     as_exact = len(differing) < len(errors)
     band = low / 4  # where the runs as exact as the reference are drawn
     reference = _reference(records)
@@ -104,16 +115,15 @@ def speed_error_figure(title: str, records: list[Record]) -> Any:
         for solver in dict.fromkeys(r.solver for r in points):
             recs = sorted((r for r in points if r.solver == solver), key=lambda r: r.value or 0)
             xs = [float(r.us_per_step) for r in recs]  # type: ignore[arg-type]
-            ys = [float(r.error["rms"]) for r in recs]
-            shown = [y if y >= AS_EXACT else band for y in ys]
+            shown = [drawn_error(r, band) for r in recs]
             ax.plot(xs, shown, "-", color=colour(solver), lw=1.2, label=solver)
             markers += [(solver, r, x, y) for r, x, y in zip(recs, xs, shown)]
         sizes = marker_sizes(ax.transData.transform([(x, y) for _, _, x, y in markers]),
                              [solver for solver, *_ in markers], fig.dpi)
         for (solver, r, x, y), size in zip(markers, sizes):
             c = colour(solver)
-            ax.plot([x], [y], "v" if float(r.error["rms"]) < AS_EXACT else "o", ms=size, mec=c,
-                    mfc=c if r.passed else "white", mew=1.4)
+            ax.plot([x], [y], run_marker(r), ms=size, mec=c, mfc=c if r.passed else "white", mew=1.4)
+            _uncertainty(ax, r, x, y, c)
             spread = r.timing.get("spread")
             if spread:  # the median repeat: how far another bench may put this run to the right
                 ax.plot([x, x * (1 + spread)], [y, y], "-", color=c, lw=0.8, alpha=0.6)
@@ -122,13 +132,14 @@ def speed_error_figure(title: str, records: list[Record]) -> Any:
         front = pareto(points)
         if front:
             fx = [float(r.us_per_step) for r in front]  # type: ignore[arg-type]
-            fy = [max(float(r.error["rms"]), band) for r in front]
+            fy = [drawn_error(r, band) for r in front]
             ax.step(fx, fy, where="post", color="0.55", lw=5, alpha=0.35, zorder=0, label="Pareto front (passed)")
             ax.plot(fx, fy, "o", ms=12, mfc="none", mec="0.3", mew=1.0, zorder=0)
         if reference is not None:
             ax.axvline(reference.us_per_step, color=colour(reference.solver), ls="--", lw=1.0,
                        label=f"{reference.solver} (reference, error 0): {reference.us_per_step:.3g} µs/step, "
                              f"{'passed' if reference.passed else 'failed'}")
+        _mark_legend(ax, points)
         ax.set_xlabel("microseconds per step (fastest of timed runs; bar: to the median)")
         ax.set_ylabel("RMS velocity error against exact (m/s)")
         ax.set_title(f"{title}: speed against error (filled: passed the case, hollow: failed)", fontsize=10)
@@ -138,6 +149,44 @@ def speed_error_figure(title: str, records: list[Record]) -> Any:
     except BaseException:
         plt.close(fig)
         raise
+
+
+def drawn_error(rec: Record, band: float) -> float:
+    """Where a run sits up the speed plot: its stated error (its uncertainty where the error is within it), or
+    the as-exact ``band`` below ``AS_EXACT``."""
+    e = stated(rec)
+    return e if e >= AS_EXACT else band
+
+
+def run_marker(rec: Record) -> str:
+    """A run's marker: a diamond where the reference left steps unsolved, a triangle down where the run is as
+    exact as the reference (on the band), a circle otherwise."""
+    if unsolved(rec.error):
+        return UNSOLVED_MARK
+    return "v" if stated(rec) < AS_EXACT else "o"
+
+
+def _uncertainty(ax: Any, rec: Record, x: float, y: float, c: str) -> None:
+    """A run's uncertainty on the speed plot: from an error within it (drawn at it, ``y``), an arrow down
+    ending in a caret (``<=``: anywhere below); over an error above it, a thin bar spanning ``rms ± spread``;
+    nothing where it is 0."""
+    if within(rec.error) and y >= AS_EXACT:
+        ax.plot([x, x], [y, y / BELOW], "-", color=c, lw=1.0)
+        ax.plot([x], [y / BELOW], marker=BELOW_MARK, ms=6, color=c, ls="none")
+    elif not within(rec.error):
+        lo, hi = interval(rec)
+        if hi > lo and lo > 0.0:
+            ax.plot([x, x], [lo, hi], "-", color=c, lw=0.8, alpha=0.6)
+
+
+def _mark_legend(ax: Any, points: list[Record]) -> None:
+    """Legend entries for the marks drawn on this plot only: the diamond of unsolved steps, the '<=' arrow."""
+    if any(unsolved(r.error) for r in points):
+        ax.plot([], [], UNSOLVED_MARK, color="0.4", mfc="white", ls="none",
+                label="diamond: steps the reference left unsolved (error against its best answer)")
+    if any(within(r.error) for r in points):
+        ax.plot([], [], marker=BELOW_MARK, color="0.4", ls="none",
+                label="arrow down: error <= its uncertainty, drawn at it")
 
 
 def marker_sizes(pixels: Any, solvers: list[str], dpi: float) -> list[float]:

@@ -1,6 +1,10 @@
 """What a bench leaves behind: ``bench.json`` (every record) and ``report.html`` (``stackx.bench.page``), the
 page with its pictures embedded, so that it is the one file to open or send.
 
+Each record keeps its error dict whole (``spread``, ``spread_max``, ``unsolved``, ``unsolved_residual`` where
+the model measures them); each run on a Pareto front and each winner's row carries its error, ``error_spread``
+(its uncertainty, 0 where none) and ``unsolved`` (steps the reference left unsolved).
+
 Between two benches of the same configs only the timings differ in ``bench.json``, and what follows from
 them (equal-cost winners, Pareto fronts, the cheapest solver that passes, the plots).
 """
@@ -25,6 +29,7 @@ from stackx.bench.plots import drift_profile_png, rest_height, speed_error_png, 
 from stackx.bench.snapshots import snapshots
 from stackx.bench.result import DEFINITIONS, CaseResult
 from stackx.bench.sweep import Record
+from stackx.bench.uncertainty import spread, unsolved
 from stackx.output.outdir import OutputDir
 
 
@@ -61,7 +66,8 @@ def _case_doc(res: CaseResult) -> dict[str, Any]:
                                "not_applicable": p.skipped, "claim_baseline": p.claim} for p in case.plans},
         "left_out": res.left_out,
         "records": [r.as_dict() for r in res.records],
-        "pareto": [{"solver": r.solver, "value": r.value, "borderline": borderline(r, res.records)}
+        "pareto": [{"solver": r.solver, "value": r.value, "borderline": borderline(r, res.records),
+                    "error": r.error.get("rms"), "error_spread": spread(r.error), "unsolved": unsolved(r.error)}
                    for r in res.front],
         "equal_cost": res.equal_cost,
         "claim": res.claim,

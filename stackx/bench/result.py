@@ -13,6 +13,7 @@ from stackx.bench.plan import Case
 from stackx.bench.sweep import Record
 from stackx.bench.timing import UNSTABLE
 from stackx.bench.criteria import digits
+from stackx.bench.uncertainty import error_text, figure
 from stackx.models.touch import TOUCH_GAP
 from stackx.models.column.measures import MOTION_WINDOW, STILL
 
@@ -44,9 +45,20 @@ DEFINITIONS = {
              "solved; running both side by side would compare two piles that part ways within a few steps. It "
              "includes what a solver does on purpose that a rigid contact does not (a bias pushing apart, soft "
              "contacts, substeps, speculative contacts). A crushed run's error stops where it was crushed. On the "
-             "planar model the reference may fail to solve a step to 1e-10 m/s (it says so rather than guess): "
-             "the error then leaves those steps out, says how many, and the run is drawn in no speed-against-"
-             "error plot, front or winner.",
+             "planar model the reference may fail to solve a step to its tolerance (it says so rather than guess): "
+             "the error then measures those steps against its best answer, counts them in, and says how many "
+             "and the largest residual left ('0.0124 (3 steps unsolved, residual <= 2.4e-6 m/s)'); the run stays "
+             "in the plots (drawn as a diamond), fronts and winners, which name it. Shown with its uncertainty "
+             "where measured: see uncertainty.",
+    "uncertainty": "(planar) a step may have more than one exact answer (a pile resting on friction), and the "
+                   "reference finds one: the error's uncertainty (error.spread in bench.json, m/s) is how far "
+                   "apart the exact answers found lie, RMS over steps and boxes as the error (spread_max: "
+                   "the largest for one box). An error above it reads '0.0124 ± 0.0004'; at or below it, "
+                   "'<= 0.0024': it cannot be told from zero, is drawn at the uncertainty with an arrow down, "
+                   "and reaches an error level only when the uncertainty does. Two runs whose intervals (the "
+                   "error less and plus its uncertainty) overlap are tied on error: fronts and winners rank them "
+                   "by cost; one is more accurate only when its interval lies wholly below. A column run has none "
+                   "(0)",
     "violation": "(planar) the solver's own answer checked against each step's contact conditions, needing no "
                  "reference: on the step problem the error's reference sets, the impulses the solver's step "
                  "applied (a single velocity solve's accumulated impulses; the soft step's summed over its "
@@ -121,13 +133,15 @@ DEFINITIONS = {
              "has the setting and every knob value; a pair bears it out when the case's setting still moves at "
              "the end (RMS motion at or above criteria.settle) where the lab's has settled",
     "equal_cost": f"for each error level ({', '.join(f'{t:g}' for t in TARGETS)} m/s), the solver whose cheapest "
-                  "run at or below that error takes the fewest microseconds per step, among runs that passed the "
-                  "case (a run that fails is no answer, however fast and accurate its steps), with the solvers "
+                  "run at or below that error (its uncertainty too, where the error is within it) takes the "
+                  "fewest microseconds per step, among runs that passed the case (a run that fails is no answer, "
+                  "however fast and accurate its steps), with the solvers "
                   f"tied with it (a time at most {100 * TIE:.0f}% above the winner's, as measured, not moved by "
                   "its noise: the same cost, as timings go; a noisy time is flagged unstable instead); the "
                   "reference is left out "
                   "(its error is zero by definition) and its time shown beside",
-    "pareto": "among runs that passed the case, those that no other passing run beats: at least as accurate and "
+    "pareto": "among runs that passed the case, those that no other passing run beats: at least as accurate "
+              "(or tied with it on error: see uncertainty) and "
               f"more than {100 * TIE:.0f}% faster, or more accurate and not {100 * TIE:.0f}% slower (times "
               "closer than that are the same cost), with both times moved in the run's favour by their noise "
               "(their spread, at least 5%); a run beaten only without that move is on the front, marked "
@@ -218,16 +232,12 @@ def shown(rec: Record) -> dict[str, str]:
         figures["reach"] = "-" if rec.blew_up else number(rec.measures.get("reach"))
         return figures
     m, e = rec.measures, rec.error
-    figures = {"error": number(e.get("rms")), "error_max": number(e.get("max")),
+    figures = {"error": error_text(e), "error_max": figure(e.get("max"), e.get("spread_max")),
                "worst_step": number(e.get("worst_step"), "d"), "reach": number(m.get("reach"))}
     worst = e.get("violation_worst")
     largest = None if worst is None else e["violation_max"][worst]
     figures["violation"] = "-" if worst is None else number(largest) + (f" {worst}" if largest else "")
     figures["approach"] = number(e.get("approach_max"))
-    if e.get("unsolved"):  # the reference could not solve some steps: the error leaves them out, and says so
-        skipped = f" ({e['unsolved']} step{'s' if e['unsolved'] > 1 else ''} unsolved)"
-        figures["error"] += skipped
-        figures["error_max"] += skipped
     for k in MEASURES:
         figures[k] = number(m.get(k), "g" if k.startswith("steps_") else ".3g")
     for verdict in rec.criteria.values():  # a measure judged against a limit shows the digits that tell them apart

@@ -59,9 +59,9 @@ def summary_html(results: list[CaseResult]) -> str:
                 cells.append(td("-", title=f"{solver} was not run on {res.name}"))
             elif rec.passed:
                 text = "pass" + (f" {rec.value}" if rec.knob else "")
+                error = "the reference" if rec.reference else f"error {error_text(rec, ' m/s')}"
                 tip = (f"passes from {label(rec.solver, rec.knob, rec.value)} at {number(rec.us_per_step)} µs per "
-                       f"step, {'the reference' if rec.reference else f'error {error_text(rec)} m/s'}; passed at "
-                       f"{_passing(res, solver)}")
+                       f"step, {error}; passed at {_passing(res, solver)}")
                 cells.append(td(text, "pass best" if rec is best else "pass", tip))
             else:
                 at = f" at {rec.knob} {rec.value}" if rec.knob else ""
@@ -74,8 +74,10 @@ def summary_html(results: list[CaseResult]) -> str:
             "the largest it tried, with what failed there (hover a cell for the values and limits). The cheapest "
             "is the fastest, in microseconds per step, of the solvers' smallest passing runs, the reference "
             "included: it answers the case; its error is the RMS against the reference ('reference': zero by "
-            "definition), with its uncertainty where measured. A time marked 'py' was stepped as plain Python "
-            f"(no compiled kernels), '*' by an engine one step per call. Words: {words}.</p>")
+            "definition), with its uncertainty where measured ('± u'; '<= u' where the error is within it and "
+            "cannot be told from zero) and the steps the reference left unsolved, if any. A time marked 'py' "
+            "was stepped as plain Python (no compiled kernels), '*' by an engine one step per call. "
+            f"Words: {words}.</p>")
 
 
 def _knob(rec: Record) -> str:

@@ -7,7 +7,11 @@ uncertainty where the record has one, and its verdict in the words every output 
 then, indented under it, the cheapest that passes, the Pareto front and the equal-cost winners, each run
 with its numbers, each saying when it rests on a tie or an unstable timing and that the reference is left
 out where it is. ``--wide`` prints instead every run of every case with all its figures, and the stability
-matrix. Tables are laid out within the screen's width by the screen itself (``stackx.output.screen``)."""
+matrix. Tables are laid out within the screen's width by the screen itself (``stackx.output.screen``).
+
+An error reads with its uncertainty and the steps the reference left unsolved (``stackx.bench.uncertainty``):
+the front's and the winners' headings count the runs on them that carry unsolved steps and those whose error is
+within its uncertainty (tied on error), and each such run's line says so."""
 
 from __future__ import annotations
 
@@ -25,10 +29,12 @@ from stackx.bench.result import CaseResult, call_time, per_call_note, shown, uns
 from stackx.bench.stepping import COMPILED
 from stackx.bench.sweep import Record
 from stackx.bench.criteria import NAMES
+from stackx.bench.uncertainty import carrying_unsolved, within
 
 _KNOB = {"iterations": "it", "substeps": "sub"}
 KEY = ("knob: each solver at its smallest value that passed, else the largest tried (it: iterations, sub: "
-       "substeps); error: RMS against the reference, m/s")
+       "substeps); error: RMS against the reference, m/s (± its uncertainty; <= u: within its uncertainty u, "
+       "tied on error with any run it overlaps)")
 
 
 def case_table(res: CaseResult, how: dict[str, str] | None = None) -> Table:
@@ -107,7 +113,7 @@ def _cheapest(res: CaseResult, how: dict[str, str]) -> str:
     shown_runs = outcomes(res.records)
     best = shown_runs[0]
     line = escape(_run(best, how)) + (", the reference (error 0 by definition)" if best.reference else
-                                      f", error {escape(error_text(best))} m/s")
+                                      f", error {escape(error_text(best, ' m/s'))}")
     ties = tied_with(best, shown_runs)
     if ties:
         line += f"; tied with it (within {100 * TIE:.0f}%): " + escape("; ".join(_run(r, how) for r in ties))
@@ -118,12 +124,13 @@ def _front(res: CaseResult, how: dict[str, str]) -> Table:
     """The Pareto front, one run a line: the run, its time and its error; ``?`` after a borderline one."""
     grid = Table.grid(padding=(0, 2))
     grid.add_column(overflow="fold")
-    for _ in range(3):
-        grid.add_column(no_wrap=True)
+    grid.add_column(no_wrap=True)
+    grid.add_column(overflow="fold")  # an error with its unsolved steps runs long
+    grid.add_column(no_wrap=True)
     for r in res.front:
         grid.add_row(escape(_name(r)),
                      escape(timed(r, how.get(r.solver, COMPILED))) + " µs/step",
-                     escape(error_text(r)) + " m/s", "?" if borderline(r, res.records) else "")
+                     escape(error_text(r, " m/s")), "?" if borderline(r, res.records) else "")
     return grid
 
 
@@ -134,7 +141,7 @@ def _winners(res: CaseResult, how: dict[str, str]) -> Table:
     grid.add_column(no_wrap=True)
     grid.add_column(overflow="fold")
     grid.add_column(no_wrap=True)
-    grid.add_column(no_wrap=True)
+    grid.add_column(overflow="fold")
     grid.add_column(overflow="fold")
     for row in res.equal_cost:
         if not row["winner"]:
@@ -142,7 +149,7 @@ def _winners(res: CaseResult, how: dict[str, str]) -> Table:
         win = cheapest(res.records, row["target"])[row["winner"]]
         tied = f"tied (within {100 * TIE:.0f}%): {', '.join(row['tied'])}" if row["tied"] else ""
         grid.add_row(f"<= {row['target']:g}", escape(_name(win)),
-                     escape(timed(win, how.get(win.solver, COMPILED))) + " µs/step", escape(error_text(win)) + " m/s",
+                     escape(timed(win, how.get(win.solver, COMPILED))) + " µs/step", escape(error_text(win, " m/s")),
                      escape(tied))
     return grid
 
@@ -162,13 +169,32 @@ def answers(res: CaseResult, how: dict[str, str] | None = None) -> list[Renderab
     if res.front:
         flagged = sum(1 for r in res.front if unstable(r))
         shaky = f"; [yellow]rests on {flagged} unstable timing{'s' if flagged > 1 else ''}[/]" if flagged else ""
-        out.append(_indented(Text.from_markup(f"front (passed runs, fastest first{apart}; ?: borderline){shaky}:")))
+        marks = _marks(res.front)
+        out.append(_indented(Text.from_markup(f"front (passed runs, fastest first{apart}; ?: borderline){shaky}"
+                                              f"{marks}:")))
         out.append(_indented(_front(res, how), 4))
     if any(row["winner"] for row in res.equal_cost):
         shaky = "; [yellow]! rests on an unstable timing[/]" if any(row["unstable"] for row in res.equal_cost) else ""
-        out.append(_indented(Text.from_markup(f"fastest to reach each error (passed runs{apart}){shaky}:")))
+        winners = [cheapest(res.records, row["target"])[row["winner"]] for row in res.equal_cost if row["winner"]]
+        marks = _marks(list({id(r): r for r in winners}.values()))
+        out.append(_indented(Text.from_markup(f"fastest to reach each error (passed runs{apart}){shaky}{marks}:")))
         out.append(_indented(_winners(res, how), 4))
     return out
+
+
+def _marks(runs: list[Record]) -> str:
+    """What a front's or the winners' heading says of its runs' errors: how many carry steps the reference left
+    unsolved (measured against its best answer there) and how many are within their uncertainty ('<=', tied
+    on error); empty when none."""
+    parts = []
+    unsolved = carrying_unsolved(runs)
+    if unsolved:
+        parts.append(f"[yellow]{len(unsolved)} with steps unsolved by the reference: "
+                     f"{escape(', '.join(_name(r) for r in unsolved))}[/]")
+    inside = sum(1 for r in runs if within(r.error))
+    if inside:
+        parts.append(f"<=: {inside} within {'their' if inside > 1 else 'its'} uncertainty, tied on error")
+    return "".join(f"; {p}" for p in parts)
 
 
 def _indented(renderable: RenderableType, left: int = 2) -> Padding:

@@ -397,7 +397,7 @@ def test_every_solver_has_one_colour_everywhere(bench_out: Path, doc: dict) -> N
         try:
             lines = fig.axes[0].get_lines()
             shown = [r for r in records if r.variant == "case" and not r.reference and not r.crushed
-                     and not r.blew_up and r.error.get("rms") is not None and not r.error.get("unsolved")]
+                     and not r.blew_up and r.error.get("rms") is not None]
             drawn = {r.solver for r in shown}
             assert drawn
             for solver in drawn:
@@ -407,7 +407,7 @@ def test_every_solver_has_one_colour_everywhere(bench_out: Path, doc: dict) -> N
                 runs = sorted((r for r in shown if r.solver == solver), key=lambda r: r.value or 0)
                 assert list(line.get_xdata()) == [r.us_per_step for r in runs]
                 for r in runs:  # each run's marker, at its time, edged in the solver's colour
-                    assert any(list(ln.get_xdata()) == [r.us_per_step] and ln.get_marker() in ("o", "v")
+                    assert any(list(ln.get_xdata()) == [r.us_per_step] and ln.get_marker() in ("o", "v", "D")
                                and to_hex(ln.get_markeredgecolor()) == c for ln in lines), (solver, r.value)
         finally:
             plots_module._pyplot().close(fig)

@@ -33,7 +33,7 @@ def _run(solver: str, value: int | None, us: float, rms: float | None, spread: f
     verdicts = judge(rec.measures, Criteria())
     rec.criteria = {name: v.as_dict() for name, v in verdicts.items()}
     rec.passed = passed(verdicts)
-    rec.error = {"rms": rms} if uncertainty is None else {"rms": rms, "rms_uncertainty": uncertainty}
+    rec.error = {"rms": rms} if uncertainty is None else {"rms": rms, "spread": uncertainty}
     rec.us_per_step, rec.timing = us, {"spread": spread, "unstable": flag}
     if per_call:
         rec.timing["one_step_per_call"] = True
