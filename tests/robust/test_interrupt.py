@@ -42,15 +42,19 @@ STACKX_FILE = re.compile(r"/stackx/(run/)?(__pycache__/)?(__init__|__main__|inte
 
 @pytest.fixture(scope="module")
 def earlier(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path, int, int]:
-    """OLD and NEW runs of one config, and the range of ``openat`` calls stackx itself makes."""
+    """OLD and NEW runs of one config, and the range of ``openat`` calls stackx itself makes before the switch
+    that puts the new folder in place (a signal after it rightly finds the run's files already there)."""
     root = tmp_path_factory.mktemp("interrupt")
     subprocess.run(command(root / "old", "--set", "gravity=-9.0", configs=CONFIG), check=True, cwd=REPO,
                    env=environ(), timeout=hang_limit(300))
     shutil.copytree(root / "old", root / "new")
     trace = root / "trace.txt"
-    subprocess.run(["strace", "-qq", "-o", str(trace), "-e", "trace=openat", *command(root / "new", configs=CONFIG)],
-                   check=True, cwd=REPO, env=environ(), timeout=hang_limit(300))
-    calls = trace.read_text().splitlines()
+    subprocess.run(["strace", "-qq", "-o", str(trace), "-e", "trace=openat,renameat2",
+                    *command(root / "new", configs=CONFIG)], check=True, cwd=REPO, env=environ(),
+                   timeout=hang_limit(300))
+    lines = trace.read_text().splitlines()
+    switch = next(i for i, line in enumerate(lines) if "renameat2(" in line and "RENAME_EXCHANGE" in line)
+    calls = [line for line in lines[:switch] if "openat(" in line]
     first = next(i for i, line in enumerate(calls) if "stackx/cli.py" in line or "stackx/__pycache__/cli." in line)
     return root / "old", root / "new", first, len(calls)
 
