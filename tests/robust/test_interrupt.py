@@ -42,8 +42,9 @@ STACKX_FILE = re.compile(r"/stackx/(run/)?(__pycache__/)?(__init__|__main__|inte
 
 @pytest.fixture(scope="module")
 def earlier(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path, int, int]:
-    """OLD and NEW runs of one config, and the range of ``openat`` calls stackx itself makes before the switch
-    that puts the new folder in place (a signal after it rightly finds the run's files already there)."""
+    """OLD and NEW runs of one config, and the range of ``openat`` calls stackx itself makes while a signal still
+    leaves the folder as it was: up to the staged manifest, its last file. From there the switch holds a signal
+    until the new folder is in place (``test_a_signal_during_the_switch_waits_for_it_and_says_so``)."""
     root = tmp_path_factory.mktemp("interrupt")
     subprocess.run(command(root / "old", "--set", "gravity=-9.0", configs=CONFIG), check=True, cwd=REPO,
                    env=environ(), timeout=hang_limit(300))
@@ -53,10 +54,10 @@ def earlier(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path, int, 
                     *command(root / "new", configs=CONFIG)], check=True, cwd=REPO, env=environ(),
                    timeout=hang_limit(300))
     lines = trace.read_text().splitlines()
-    switch = next(i for i, line in enumerate(lines) if "renameat2(" in line and "RENAME_EXCHANGE" in line)
-    calls = [line for line in lines[:switch] if "openat(" in line]
+    calls = [line for line in lines if "openat(" in line]
     first = next(i for i, line in enumerate(calls) if "stackx/cli.py" in line or "stackx/__pycache__/cli." in line)
-    return root / "old", root / "new", first, len(calls)
+    staged = max(i for i, line in enumerate(calls) if ".new.stackx-next/manifest.json" in line)
+    return root / "old", root / "new", first, staged + 1
 
 
 def _signalled(argv: list[str], call: str, k: int, signal: str = "INT") -> subprocess.CompletedProcess[str]:
@@ -162,7 +163,8 @@ def test_a_signal_while_importing_or_running_is_one_line(earlier: tuple[Path, Pa
                                                           signal: str) -> None:
     old, _, first, last = earlier
     rng = random.Random(31 if signal == "INT" else 143)
-    points = sorted({first + 1, first + 40, *rng.sample(range(first + 1, last + 1), 4 if signal == "INT" else 3)})
+    sampled = rng.sample(range(first + 1, last + 1), 4 if signal == "INT" else 3)
+    points = sorted({first + 1, first + 40, last, *sampled})
     for k in points:
         folder = tmp_path / f"at{k}"
         done = _interrupted(old, folder, "openat", k, signal)
