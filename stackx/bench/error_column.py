@@ -35,10 +35,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from stackx.bench.criteria import Criteria
 from stackx.kernel import kernel
 from stackx.models.column.state import ColumnState
-from stackx.bench.steplog import RowLog
+from stackx.bench import steplog
 from stackx.run.runner import OnStep
 from stackx.solvers.column.exact import solve_step
 from stackx.solvers.column.isotonic import workspace
@@ -116,19 +115,12 @@ def log_step(k: int, y: np.ndarray, v: np.ndarray, after_y: np.ndarray, after_v:
             worst_step[b] = k
 
 
-class StepLog:
+class StepLog(steplog.StepLog):
     """A ``stackx.run.runner.StepObserver`` keeping a ``RowLog`` per run name."""
-
-    def __init__(self, criteria: Criteria) -> None:
-        self.criteria = criteria
-        self.rows: dict[str, RowLog] = {}
 
     def batch(self, runs: list[RunSpec], solver: object = None) -> OnStep:
         log = BatchLog(len(runs), runs[0].scene.size())
-        self.rows.update((r.name, RowLog(log, b)) for b, r in enumerate(runs))
-        g = np.array([r.gravity for r in runs], dtype=np.float64)
-        dt = np.array([r.dt for r in runs], dtype=np.float64)
-        speculative = np.array([float(getattr(r.solver_params, "speculative", 0.0)) for r in runs])
+        g, dt, speculative = self.start(log, runs)
         swept = np.array([bool(getattr(r.solver_params, "swept", False)) for r in runs])
         c = self.criteria
 

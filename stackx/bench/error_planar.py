@@ -273,19 +273,14 @@ def log_step(log: BatchLog, k: int, before: PlanarState, after: PlanarState, g: 
             log.worst_step[b] = k
 
 
-class StepLog:
+class StepLog(steplog.StepLog):
     """A ``stackx.run.runner.StepObserver`` keeping a ``RowLog`` per run name."""
 
-    def __init__(self, criteria: Criteria) -> None:
-        self.criteria = criteria
-        self.rows: dict[str, RowLog] = {}
+    row_log = RowLog
 
     def batch(self, runs: list[RunSpec], solver: object = None) -> OnStep:
         log = BatchLog(len(runs), runs[0].scene.size())
-        self.rows.update((r.name, RowLog(log, b)) for b, r in enumerate(runs))
-        g = np.array([r.gravity for r in runs], dtype=np.float64)
-        dt = np.array([r.dt for r in runs], dtype=np.float64)
-        speculative = np.array([float(getattr(r.solver_params, "speculative", 0.0)) for r in runs])
+        g, dt, speculative = self.start(log, runs)
         reaches = np.array([bool(getattr(r.solver_cls, "speculative_reach", False)) for r in runs])
         exposed = getattr(solver, "step_impulses", None)  # planar solvers have it; engines do not
         if exposed is not None:

@@ -3,7 +3,8 @@
 Each model's step log (``stackx.bench.error_column``, ``stackx.bench.error_planar``) keeps, per batch, arrays
 with one element per row: ``sumsq``, ``values`` (differences compared), ``measured`` (steps compared),
 ``worst``, ``worst_step``, ``crushed_at``, ``last_overlap``, ``last_unheld``, ``last_moving`` and ``steps``.
-``RowLog`` reads row ``b`` of them as the bench's error, crushed step and timeline.
+``RowLog`` reads row ``b`` of them as the bench's error, crushed step and timeline; ``StepLog`` is what both
+logs' observers share: a row log per run name, and the per-row numbers every step needs.
 """
 
 from __future__ import annotations
@@ -12,6 +13,9 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+
+from stackx.bench.criteria import Criteria
+from stackx.config.spec import RunSpec
 
 
 @dataclass
@@ -42,3 +46,23 @@ class RowLog:
         overlap, settle_at = int(log.last_overlap[b]), int(max(log.last_unheld[b], log.last_moving[b]))
         return {"steps_to_recover": None if overlap == last else overlap + 1,
                 "steps_to_settle": None if settle_at == last else settle_at + 1}
+
+
+class StepLog:
+    """A ``stackx.run.runner.StepObserver`` keeping a ``RowLog`` per run name; each model's log says how a batch's
+    steps are measured (``batch``)."""
+
+    row_log: type[RowLog] = RowLog
+
+    def __init__(self, criteria: Criteria) -> None:
+        self.criteria = criteria
+        self.rows: dict[str, RowLog] = {}
+
+    def start(self, log: Any, runs: list[RunSpec]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Row logs for the batch's runs (row ``b`` of ``log``), and per row its gravity, time step and the
+        solver's own speculative margin (0 for a solver without one)."""
+        self.rows.update((r.name, self.row_log(log, b)) for b, r in enumerate(runs))
+        g = np.array([r.gravity for r in runs], dtype=np.float64)
+        dt = np.array([r.dt for r in runs], dtype=np.float64)
+        speculative = np.array([float(getattr(r.solver_params, "speculative", 0.0)) for r in runs])
+        return g, dt, speculative

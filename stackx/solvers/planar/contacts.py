@@ -645,26 +645,36 @@ def correct_positions(x: np.ndarray, y: np.ndarray, inv_mass: np.ndarray, ids: n
     for k in range(count):
         if table[k, DEPTH] < 0.0:
             continue
-        a, b = ids[k, A], ids[k, B]
-        nx, ny = table[k, NX], table[k, NY]
-        opened = shift[b, 0] * nx + shift[b, 1] * ny
-        ima = 0.0
-        if a >= 0:
-            opened -= shift[a, 0] * nx + shift[a, 1] * ny
-            ima = inv_mass[a]
-        down, up = correct(table[k, DEPTH] - opened, slop, percent, ima, inv_mass[b])
-        if down != 0.0:
-            x[a] -= down * nx
-            y[a] -= down * ny
-            shift[a, 0] -= down * nx
-            shift[a, 1] -= down * ny
-        if up != 0.0:
-            x[b] += up * nx
-            y[b] += up * ny
-            shift[b, 0] += up * nx
-            shift[b, 1] += up * ny
-        moved = moved or down != 0.0 or up != 0.0
+        a = ids[k, A]
+        pushed = correct_point(x, y, ids, table, k, inv_mass[a] if a >= 0 else 0.0, inv_mass[ids[k, B]], slop,
+                               percent, shift)
+        moved = moved or pushed
     return moved
+
+
+@leaf
+def correct_point(x: np.ndarray, y: np.ndarray, ids: np.ndarray, table: np.ndarray, k: int, ima: float,
+                  imb: float, slop: float, percent: float, shift: np.ndarray) -> bool:
+    """Point ``k``'s share of the lab's correction, its bodies' inverse masses given (0 holds a side still):
+    its depth less what the pushes before it opened along its normal (``shift``), split by ``correct``,
+    applied to the positions and to ``shift``; returns whether it moved a body."""
+    a, b = ids[k, A], ids[k, B]
+    nx, ny = table[k, NX], table[k, NY]
+    opened = shift[b, 0] * nx + shift[b, 1] * ny
+    if a >= 0:
+        opened -= shift[a, 0] * nx + shift[a, 1] * ny
+    down, up = correct(table[k, DEPTH] - opened, slop, percent, ima, imb)
+    if down != 0.0:
+        x[a] -= down * nx
+        y[a] -= down * ny
+        shift[a, 0] -= down * nx
+        shift[a, 1] -= down * ny
+    if up != 0.0:
+        x[b] += up * nx
+        y[b] += up * ny
+        shift[b, 0] += up * nx
+        shift[b, 1] += up * ny
+    return down != 0.0 or up != 0.0
 
 
 @leaf

@@ -50,15 +50,14 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
 
 from stackx.kernel import inlined, kernel, leaf, prange
-from stackx.models.planar.layout import A, B, DEPTH, NX, NY
+from stackx.models.planar.layout import A, B, DEPTH
 from stackx.models.planar.state import PlanarState
 from stackx.registry import solvers
 from stackx.solvers.base import Correction, LabCorrection
 from stackx.solvers.contacts import speculative_field
-from stackx.solvers.correct import correct
 from stackx.solvers.planar.base import PlanarMemorySolver, StepImpulses, sequential_only
-from stackx.solvers.planar.contacts import (BLOCK_CONDITION, contact_workspace, correct_positions, effective_mass,
-                                            find_contacts_near, integrate_positions, near_workspace,
+from stackx.solvers.planar.contacts import (BLOCK_CONDITION, contact_workspace, correct_point, correct_positions,
+                                            effective_mass, find_contacts_near, integrate_positions, near_workspace,
                                             observe_contacts, two_point_lcp)
 from stackx.solvers.planar.passes import (FIRST, INV_I, INV_M, L_A, L_B, L_POINTS, L_SINK, M_BLOCK, M_MU, M_NX,
                                           M_NY, Q_PN, Q_PT, Q_RAX, Q_RAY, Q_RBX, Q_RBY, Q_TARGET, SECOND, V_W, V_X,
@@ -343,7 +342,7 @@ def point_levels(ids: np.ndarray, count: int, level: np.ndarray, top: np.ndarray
 def shock_positions(x: np.ndarray, y: np.ndarray, inv_mass: np.ndarray, ids: np.ndarray, table: np.ndarray,
                     level: np.ndarray, visit: np.ndarray, starts: np.ndarray, levels: int, passes: int, slop: float,
                     percent: float, shift: np.ndarray) -> bool:
-    """The lab's correction (``contacts.correct_positions``: each depth less what earlier pushes opened along
+    """The lab's correction (``contacts.correct_point``: each depth less what earlier pushes opened along
     its normal) level by level from the ground up, ``passes`` times a level, with the lower body of each
     point frozen so the upper takes the whole push; returns whether it moved any body."""
     shift[:, :] = 0.0
@@ -356,29 +355,16 @@ def shock_positions(x: np.ndarray, y: np.ndarray, inv_mass: np.ndarray, ids: np.
                 if table[k, DEPTH] < 0.0:
                     continue
                 a, b = ids[k, A], ids[k, B]
-                nx, ny = table[k, NX], table[k, NY]
-                opened = shift[b, 0] * nx + shift[b, 1] * ny
                 ima, la = 0.0, level[n]
                 if a >= 0:
-                    opened -= shift[a, 0] * nx + shift[a, 1] * ny
                     ima, la = inv_mass[a], level[a]
                 imb = inv_mass[b]
                 if la < level[b]:
                     ima = 0.0
                 elif level[b] < la:
                     imb = 0.0
-                down, up = correct(table[k, DEPTH] - opened, slop, percent, ima, imb)
-                if down != 0.0:
-                    x[a] -= down * nx
-                    y[a] -= down * ny
-                    shift[a, 0] -= down * nx
-                    shift[a, 1] -= down * ny
-                if up != 0.0:
-                    x[b] += up * nx
-                    y[b] += up * ny
-                    shift[b, 0] += up * nx
-                    shift[b, 1] += up * ny
-                moved = moved or down != 0.0 or up != 0.0
+                pushed = correct_point(x, y, ids, table, k, ima, imb, slop, percent, shift)
+                moved = moved or pushed
     return moved
 
 
