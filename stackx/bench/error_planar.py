@@ -18,7 +18,8 @@ before, so a run's steps cost it few Newton rounds.
 
 **The nearest exact answer.** With friction a step may have several exact answers; the error is the distance to
 the one nearest the solver's: where ``nearest_wanted`` (more contact rows than velocities, the solver's impulses
-given, its error within ``NEAREST_FACTOR`` of the spread its run has found, or one step in ``SAMPLE``), a second
+given, its error within ``NEAREST_FACTOR`` of the spread its run has found so far and at least ``NEGLIGIBLE`` of
+the run's RMS error so far, or one step in ``SAMPLE``), a second
 solve from the solver's impulses (``ReferenceStep.nearest``) finds another, the nearer counts, and the distance
 between the two is the step's spread: ``spread`` (RMS over the boxes of the steps where a second answer was
 found: the one-in-``SAMPLE`` steps give an unbiased sample of it, so averaging in the steps never asked, as if
@@ -80,7 +81,8 @@ from stackx.config.spec import RunSpec
 
 
 FRACTION = 100.0  # the reference stops at residual <= max(1e-10, e / FRACTION), e the step's error (docs/bench.md)
-NEAREST_FACTOR = 2.0  # a second, nearest answer is sought where the error is within this factor of the spread seen
+NEAREST_FACTOR = 2.0  # a second, nearest answer is sought where the error is within this factor of the spread so far
+NEGLIGIBLE = 0.1  # ... and at least this share of the run's RMS error so far (a smaller one barely moves the RMS)
 SAMPLE = 25  # ... and at every SAMPLE-th measured step of a row whatever its error, to find the row's spread
 AT_ANSWER = 1e-9  # m/s: an error this small is at an exact answer already; no second answer is sought
 
@@ -99,7 +101,6 @@ class BatchLog:
         self.spread_sumsq = np.zeros(rows)  # squared distances between the exact answers found, summed over boxes
         self.spread_values = np.zeros(rows, dtype=np.int64)  # box velocities of the steps with a second answer
         self.spread_max = np.zeros(rows)  # the largest such distance of one box (m/s)
-        self.spread_seen = np.zeros(rows)  # the largest RMS spread of one step so far (m/s): when to look again
         self.nearest = np.zeros(rows, dtype=np.int64)  # steps given a second solve for the nearest answer
         self.worst = np.full(rows, -1.0)
         self.approach_max = np.zeros(rows)  # fastest approach beyond a target, over the steps (m/s)
@@ -190,16 +191,25 @@ def distances(own: np.ndarray, velocity: np.ndarray, radius: np.ndarray, moving:
 def nearest_wanted(log: BatchLog, b: int, error: float, impulses: tuple[np.ndarray, np.ndarray] | None) -> bool:
     """Whether a step is worth a second solve for the exact answer nearest the solver's: it has more contact
     rows than velocities (so its answers need not be unique), the solver gave impulses to start from, its error
-    is above ``AT_ANSWER``, and either it is within ``NEAREST_FACTOR`` of the largest step spread the row has
-    found (an error the answers' spread could account for) or the step is one of every ``SAMPLE`` the row
-    measures (which find that spread). A second solve costs about five first ones (it starts from the solver's
-    answer, not the last exact one), so made more often it would double the bench (docs/bench.md)."""
+    is above ``AT_ANSWER``, and either it is within ``NEAREST_FACTOR`` of the row's spread so far (``spread``,
+    the RMS of the answers' distances: an error the spread could account for) and at least ``NEGLIGIBLE`` of the
+    row's RMS error so far (a step whose error is a tenth of the run's moves the run's mean square by a
+    hundredth of its share, whichever answer it is measured against), or the step is one of every ``SAMPLE``
+    the row measures (which find that spread). A step measured against the first answer alone
+    overstates its error by at most its own spread, so over the run the error is overstated by at most the
+    RMS of the spreads of the steps not asked, which ``spread`` estimates and the error carries as its
+    uncertainty. A second solve costs about five first ones (it starts from the solver's answer, not the last
+    exact one), tens on a solver whose impulses are far from consistent (``planar-avbd``), so made more often
+    it would double the bench (docs/bench.md)."""
     problem = log.reference.problem
     if impulses is None or problem is None or problem.points == 0 or not error > AT_ANSWER:
         return False
     velocities = 3 * int(np.count_nonzero(problem.inv_mass > 0.0))
     sampled = log.measured[b] % SAMPLE == 0
-    return 2 * problem.points > velocities and (sampled or error <= NEAREST_FACTOR * log.spread_seen[b])
+    found = log.spread_values[b]
+    spread = np.sqrt(log.spread_sumsq[b] / found) if found else 0.0
+    so_far = np.sqrt(log.sumsq[b] / log.values[b]) if log.values[b] else 0.0
+    return 2 * problem.points > velocities and (sampled or NEGLIGIBLE * so_far <= error <= NEAREST_FACTOR * spread)
 
 
 def measure(log: BatchLog, b: int, own: np.ndarray, radius: np.ndarray, moving: np.ndarray,
@@ -222,7 +232,6 @@ def measure(log: BatchLog, b: int, own: np.ndarray, radius: np.ndarray, moving: 
     log.spread_values[b] += apart.size
     if apart.size:
         log.spread_max[b] = max(log.spread_max[b], float(apart.max()))
-    log.spread_seen[b] = max(log.spread_seen[b], rms(apart))
     near = distances(own, other.velocity, radius, moving)
     return near if rms(near) < rms(diff) else diff
 

@@ -134,3 +134,58 @@ def test_a_warm_start_that_misses_is_restarted_cold_before_giving_up(monkeypatch
     found, second = reference.measure(0, 1e-10, *args)
     assert (first, second) == (sp.LANDED, sp.COLD)
     assert residual(reference.problem, found.pn, found.pt) < 1e-10
+
+
+def _log_at(problem: ContactProblem, measured: int, spreads: list[float]) -> BatchLog:
+    """A batch log of one row that has measured ``measured`` steps and found second answers ``spreads`` apart
+    (RMS over one box each), on ``problem``."""
+    log = BatchLog(1, problem.bodies)
+    log.reference.problem = problem
+    log.measured[0] = measured
+    log.spread_sumsq[0] = sum(s * s for s in spreads)
+    log.spread_values[0] = len(spreads)
+    return log
+
+
+def test_a_second_solve_is_sought_where_the_error_is_within_twice_the_runs_spread_and_not_negligible() -> None:
+    p, answers = _answers_step()
+    given = answers["a"]
+    # one step's answers lay 0.1 m/s apart, three others' 1e-3: the run's spread is their RMS, 0.05 m/s
+    log = _log_at(p, 7, [0.1, 1e-3, 1e-3, 1e-3])
+    spread = float(np.sqrt((0.01 + 3e-6) / 4))
+    assert error_planar.nearest_wanted(log, 0, 1.9 * spread, given)
+    # an error far above the spread: the nearest answer could move it by at most the spread, which the error
+    # carries as its uncertainty; one outlying step's spread (0.1) does not make every such step a second solve
+    assert not error_planar.nearest_wanted(log, 0, 2.1 * spread, given)
+    # ... but one measured step in SAMPLE is asked whatever its error, to find the spread
+    assert error_planar.nearest_wanted(_log_at(p, error_planar.SAMPLE, [1e-3]), 0, 1.0, given)
+    assert not error_planar.nearest_wanted(_log_at(p, 7, [1e-3]), 0, 1.0, given)
+    assert not error_planar.nearest_wanted(log, 0, 1.9 * spread, None)  # no impulses to start from
+    assert not error_planar.nearest_wanted(log, 0, 1e-10, given)  # at an exact answer already
+    # a step whose error is under a tenth of the run's RMS error so far barely moves that RMS, whichever answer
+    # it is measured against: no second solve for it
+    log.sumsq[0], log.values[0] = 30 * (0.5 * spread) ** 2, 30  # 30 box velocities so far, RMS 0.5 spread
+    assert error_planar.nearest_wanted(log, 0, 0.06 * spread, given)
+    assert not error_planar.nearest_wanted(log, 0, 0.04 * spread, given)
+
+
+def test_a_second_solve_gives_up_after_its_rounds(monkeypatch: pytest.MonkeyPatch) -> None:
+    p, answers = _answers_step()
+    step = sp.ReferenceStep(1, p.bodies)
+    step.problem = p
+    stop = 1e-5  # the stop of an error of 1e-3 m/s
+    # a solver's answer midway between two exact ones walks to one of them within the rounds allowed
+    mid = tuple(0.5 * (answers["a"][i] + answers["b"][i]) for i in range(2))
+    found = step.nearest(*mid, stop)
+    assert found is not None and residual(p, found.pn, found.pt) < stop
+    # from zero impulses, far from any answer, the walk is a long one: the second solve gives up (the full
+    # walk lands, after more rounds than a second solve is worth)
+    zeros = np.zeros(p.points)
+    assert step.nearest(zeros, zeros, stop) is None
+    assert residual(p, *_landed(solve(p, zeros, zeros, tolerance=stop, interior=False, lemke=False))) < stop
+    monkeypatch.setattr(sp, "NEAREST_WALK", 0)
+    assert step.nearest(*mid, stop) is None
+
+
+def _landed(found):  # type: ignore[no-untyped-def]
+    return found.pn, found.pt

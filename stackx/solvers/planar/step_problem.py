@@ -26,8 +26,15 @@ count toward ``MISSES``. That is ``planar-exact``'s solve (``solve``).
 the paths' Newton rounds then reach other closest answers; on recorded pyramid-20 steps three of eleven missed
 steps landed so). On a problem over ``pivoting.EXACT_POINTS`` points Lemke's walk on the whole problem is left
 out (``WHOLE_WALK``): with the measured stop no step of the calibration runs or of the pyramid benches needed
-it, and where it ran before it landed 2 of 18 steps at 13 to 19 s each. A step that still misses keeps the
-closest answer either solve reached, which the bench measures and counts.
+it, and where it ran before it landed 2 of 18 steps at 13 to 19 s each. The proximal point method comes right
+after the first central path (``reference.solve``'s ``early_walk``): on a toppling pile every path misses, and
+the walk then costs less than the two more paths and five stages of friction before it (on 161 recorded
+fallback steps of ``pyramid-20`` under ``planar-warm-start`` at 1 iteration, 23 s against 41; on ``pyramid-10``'s
+steps that the later paths landed it lands too, for less). A step that still misses keeps the closest answer
+either solve reached, which the bench measures and counts.
+
+**A second solve** (``nearest``) looks for the exact answer nearest a solver's own, from its impulses, with a
+short walk (``NEAREST_WALK``): see ``stackx.bench.error_planar`` for when the bench asks for one.
 """
 
 from __future__ import annotations
@@ -50,6 +57,7 @@ NEAR_MISS = 1e-8  # m/s: a failed solve whose best residual is below this does n
 # fallback (the proximal point method, Lemke's walk on the points in doubt), the cold restart, none
 LANDED, FALLBACK, COLD, WHOLE, UNSOLVED = "path", "fallback", "cold restart", "whole walk", "unsolved"
 WHOLE_WALK = False  # a measured solve of a large problem ends with Lemke's walk on the whole (off: not worth it)
+NEAREST_WALK = 20  # most rounds of the proximal point method in a second solve for the nearest answer
 
 
 @kernel
@@ -165,7 +173,7 @@ class ReferenceStep:
             failures = []
             for (pn, pt), how in starts:
                 try:
-                    found = solve(problem, pn, pt, tolerance=tolerance, quick=large)
+                    found = solve(problem, pn, pt, tolerance=tolerance, quick=large, early_walk=True)
                 except ReferenceFailure as failure:
                     failures.append(failure)
                     continue
@@ -184,13 +192,16 @@ class ReferenceStep:
 
     def nearest(self, pn: np.ndarray, pt: np.ndarray, tolerance: Tolerance) -> Solution | None:
         """An exact answer of the last problem near impulses ``pn``, ``pt`` (a solver's own): the proximal point
-        method from them (no central path, whose end does not depend on where it starts; no Lemke's walk on the
-        whole problem), which walks to an answer near its start; None where it misses. Nothing is remembered."""
+        method from them, which walks to an answer near its start (no central path, whose end does not depend on
+        where it starts; no Lemke's walk, whose ends do not either); None where it misses. At most
+        ``NEAREST_WALK`` of its rounds: a walk that has not landed by then is a long one from impulses far from
+        consistent (``planar-avbd``'s), and on the recorded benches the rest of it bought nothing (docs/bench.md).
+        Nothing is remembered."""
         problem = self.problem
         assert problem is not None
         with compiled(enabled()):
             try:
-                return solve(problem, pn, pt, tolerance=tolerance, quick=True, interior=False)
+                return solve(problem, pn, pt, tolerance=tolerance, interior=False, walk=NEAREST_WALK, lemke=False)
             except ReferenceFailure:
                 return None
 
