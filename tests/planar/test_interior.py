@@ -159,3 +159,25 @@ def test_a_shaking_pile_whose_paths_fold_ends_its_path_where_friction_is_raised_
     assert _contact_conditions(p, sol.pn, sol.pt) < 1e-9
     assert _contact_conditions(p, pn, pt) > 1e-3  # the warm start is far from it
 
+
+
+def test_a_measured_solve_walks_right_after_the_first_path_that_folds(monkeypatch: pytest.MonkeyPatch) -> None:
+    # the same shaking pile: for the bench's measurement the proximal point method comes right after the path
+    # from its own start folds, not after two more paths and five stages of friction; the exact solver keeps
+    # its order (all seven paths followed)
+    p, pn, pt = _recorded_npz("xpbd_pyramid20_fold_step")
+    plain = interior.central_path
+    followed: list[int] = []
+
+    def counted(*args: object, **kwargs: object):  # type: ignore[no-untyped-def]
+        followed.append(1)
+        return plain(*args, **kwargs)
+
+    monkeypatch.setattr(reference, "central_path", counted)
+    sol = reference.solve(p, pn, pt, tolerance=1e-6, early_walk=True)  # a measurement's stop (error / 100)
+    assert len(followed) == 1 and sol.attempt == reference.WALK
+    assert residual(p, sol.pn, sol.pt) < 1e-6
+    assert _contact_conditions(p, sol.pn, sol.pt) < 1e-6
+    followed.clear()
+    reference.solve(p, pn, pt, tolerance=1e-6)
+    assert len(followed) == 2 + len(reference.FRICTION_RAMP)

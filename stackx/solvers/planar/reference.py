@@ -40,7 +40,10 @@ comes first. Where the fallback's full Newton rounds miss, they are made again f
 no answer and its proximal steps settle into a steady drift that moves load around the loop; the round strides
 along it until the first held point is emptied, which the next round reads as apart. Plain rounds come first:
 with drifts followed from the start, the fallback missed a step of a shaking 20-row pyramid (``planar-xpbd`` at
-16 substeps, 902 points, 1.5e-9 m/s) that it now lands.
+16 substeps, 902 points, 1.5e-9 m/s) that it now lands. A solve for the bench's measurement
+(``early_walk``) walks right after the first path misses, before the other two: where the first path folds on a
+toppling pile the others mostly fold too, and the walk lands for less than they cost
+(``step_problem.ReferenceStep.measure``); ``planar-exact`` keeps the order above.
 
 **Faces that cannot stick at both points.** The two points of a face whose targets differ (one touching, one
 closing a speculative gap) slip at rates that differ by the face's turn times their depth difference, so both
@@ -203,7 +206,7 @@ Tolerance = float | Callable[[np.ndarray], float]  # m/s, or the tolerance for a
 
 def solve(problem: ContactProblem, pn: np.ndarray | None = None, pt: np.ndarray | None = None,
           tolerance: Tolerance = TOLERANCE, sweeps: int = SWEEPS, rounds: int = ROUNDS, quick: bool = False,
-          interior: bool = True) -> Solution:
+          interior: bool = True, walk: int | None = None, lemke: bool = True, early_walk: bool = False) -> Solution:
     """Solve ``problem`` to ``residual < tolerance`` (m/s), starting from impulses ``pn``, ``pt`` (a warm
     start, e.g. the last step's by feature; zeros when None): the warm start's own Newton rounds, the central
     path, and where no path lands, the fallback (see the module text). ``tolerance`` may be a callable giving
@@ -211,7 +214,13 @@ def solve(problem: ContactProblem, pn: np.ndarray | None = None, pt: np.ndarray 
     ``stackx.bench.error_planar``); a candidate is taken once its residual is below what it gives there.
     ``quick``: the fallback without Lemke's walks on the whole problem, which cost the most (see
     ``step_problem.ReferenceStep``: after steps in a row that nothing landed). ``interior=False`` leaves the
-    paths out (the fallback alone). Raises ``ReferenceFailure`` when nothing gets there."""
+    paths out (the fallback alone). ``walk``: the most outer rounds of the proximal point method (None:
+    ``SETTLE_ROUNDS``); ``lemke=False`` leaves every Lemke's walk out (on the points in doubt and on the whole),
+    for a second solve that should end near where it starts and may give up
+    (``step_problem.ReferenceStep.nearest``). ``early_walk``: the proximal point method right after the first
+    central path misses, before the other two (the bench's measured solves: on recorded pyramid steps the walk
+    lands where the other paths do, for less, and where they miss too it is not paid after seven paths; the
+    exact solver keeps the order above). Raises ``ReferenceFailure`` when nothing gets there."""
     m, n = problem.points, problem.bodies
     pn = np.zeros(m) if pn is None else np.array(pn, dtype=np.float64)
     pt = np.zeros(m) if pt is None else np.array(pt, dtype=np.float64)
@@ -235,11 +244,20 @@ def solve(problem: ContactProblem, pn: np.ndarray | None = None, pt: np.ndarray 
             return tolerance
         return tolerance(velocities_after(problem, pn, pt) if velocity is None else velocity)
 
+    seen: list = [None, None]  # the last scaled impulses whose velocities were made, and those velocities
+
+    def velocity_at(q: np.ndarray) -> np.ndarray:
+        """The velocities of scaled impulses ``q``: asked by ``within`` and then by ``landed`` of the same
+        candidate, so the last one is kept."""
+        if seen[0] is None or not np.array_equal(seen[0], q):
+            seen[:] = [q.copy(), velocities_after(problem, q[:m] * kn, q[m:] * kt)]
+        return seen[1]
+
     def within(q: np.ndarray, now: float) -> bool:
         """Whether a merit of ``now`` at scaled impulses ``q`` is below the tolerance there (worth a look)."""
         if not callable(tolerance):
             return now < tolerance
-        return now < TOLERANCE or (now < np.inf and now < allowed(q[:m] * kn, q[m:] * kt))
+        return now < TOLERANCE or (now < np.inf and now < tolerance(velocity_at(q)))
 
     def sweep(q: np.ndarray, limit: float) -> np.ndarray:
         """Projected Gauss-Seidel from ``q`` (projected first) until its residual is below ``limit`` or
@@ -272,7 +290,7 @@ def solve(problem: ContactProblem, pn: np.ndarray | None = None, pt: np.ndarray 
         if not callable(tolerance):
             return (Solution(pn, pt, velocities_after(problem, pn, pt), score, rounds, swept) if score < tolerance
                     else None)
-        velocity = velocities_after(problem, pn, pt)
+        velocity = velocity_at(q).copy()
         return Solution(pn, pt, velocity, score, rounds, swept) if score < allowed(pn, pt, velocity) else None
 
     def attempt(q: np.ndarray, rounds: int) -> tuple[Solution | None, float]:
@@ -374,7 +392,7 @@ def solve(problem: ContactProblem, pn: np.ndarray | None = None, pt: np.ndarray 
         best = polished = reached = system.merit(q)  # reached: the contract's residual at q
         tried = None  # the modes the last full rounds started from
         spent = 0  # Newton rounds of the regularized problems
-        for _ in range(SETTLE_ROUNDS):
+        for _ in range(SETTLE_ROUNDS if walk is None else walk):
             center = q
             aim = max(TOLERANCE * 1e-3, SETTLE_SHARE * reached)
             now = system.merit(q, center)
@@ -395,7 +413,7 @@ def solve(problem: ContactProblem, pn: np.ndarray | None = None, pt: np.ndarray 
             reached = system.merit(q)
             best = min(best, reached)
             near(q, reached)
-            if reached < TOLERANCE if not callable(tolerance) else within(q, reached):
+            if within(q, reached):
                 found = landed(q, spent)
                 if found is not None:
                     return found, found.residual
@@ -480,18 +498,28 @@ def solve(problem: ContactProblem, pn: np.ndarray | None = None, pt: np.ndarray 
         # from the path's own start, then (where that folded) from the warm start, which lies on the answer's side
         # of a fold more often than not, then with the friction raised in stages from none (``FRICTION_RAMP``)
         paths = [partial(follow, None)] + ([partial(follow, warm)] if pn.any() or pt.any() else [])
-        for run in paths + [partial(follow, None, FRICTION_RAMP)]:
+        for number, run in enumerate(paths + [partial(follow, None, FRICTION_RAMP)]):
             newton.modes = None
             found = run()
             if found is not None:
                 return found
-    # the fallback: the proximal point method from the closest answer, then Lemke's pivoting (on small problems,
-    # where it costs tens of milliseconds, the other way round); full rounds that miss are made again following
-    # drifts (``DRIFT``)
-    polishers.append(mode_system(PROXIMAL, drift=DRIFT))
+            if number == 0 and early_walk:
+                polishers.append(mode_system(PROXIMAL, drift=DRIFT))
+                found, _ = settle(warm if closest[1] is None else closest[1], 2 * rounds)
+                if found is not None:
+                    found.attempt = WALK
+                    return found
+    # the fallback: the proximal point method from the closest answer (unless it walked already), then Lemke's
+    # pivoting (on small problems, where it costs tens of milliseconds, the other way round); full rounds that
+    # miss are made again following drifts (``DRIFT``)
+    walked = len(polishers) > 1
+    if not walked:
+        polishers.append(mode_system(PROXIMAL, drift=DRIFT))
     begun = warm if closest[1] is None else closest[1]  # the closest answer the paths' Newton rounds reached
-    doubt = m > pivoting.EXACT_POINTS  # a large problem: the walk on its points in doubt, before the whole's
-    fallback = [(WALK, partial(settle, begun, 2 * rounds))] + [(DOUBT, in_doubt)] * doubt + [(LEMKE, pivot)]
+    doubt = lemke and m > pivoting.EXACT_POINTS  # a large problem: the walk on its points in doubt, before the whole's
+    fallback = ([(WALK, partial(settle, begun, 2 * rounds))] * (not walked) + [(DOUBT, in_doubt)] * doubt
+                + [(LEMKE, pivot)])
+    quick = quick or not lemke
     if quick:
         fallback = fallback[:-1]
     elif m <= LEMKE_EARLY:
