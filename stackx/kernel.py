@@ -186,6 +186,10 @@ class Kernel(Generic[P, R]):
         on = getattr(_state, "compiled", None)
         if on is None:
             on = enabled()
+        if on and not self.parallel:  # the serial build, once made (the reference calls kernels millions of times)
+            serial = self._builds.get(False)
+            if serial is not None:
+                return serial(*args, **kwargs)  # type: ignore[no-any-return]
         return (self.compiled_for(args) if on else self.plain)(*args, **kwargs)  # type: ignore[no-any-return]
 
     def __repr__(self) -> str:
