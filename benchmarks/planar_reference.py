@@ -29,7 +29,8 @@ that exposes them, impulses; ``stackx.bench.error_planar.check_own``), and the s
 seconds their solves took (``failed s``); then the step log's solves by class with their count and CPU seconds
 (``stackx.solvers.planar.step_problem.ReferenceStep.measure``: ``path``, landed by the paths or a warm start's
 Newton rounds; ``fallback``, by the proximal point method or the walk on the points in doubt; ``cold restart``;
-``whole walk``, Lemke's walk on the whole problem, only with ``--whole-walk``; ``unsolved``), and the second
+``whole walk``, Lemke's walk on the whole problem after both starts missed, left out with ``--no-whole-walk``;
+``unsolved``), and the second
 solves for the nearest answer (``nearest``, ``nearest missed``). ``--fraction F`` sets the step log's stop
 (``stackx.bench.error_planar.FRACTION``: residual <= max(1e-10, error / F)), to calibrate it; ``--run`` prints
 each run's ``spread`` and how many steps had a second solve (``nearest``).
@@ -288,15 +289,15 @@ def main() -> None:
                         help="the reference's proximal weight d (what it trades: reference.py's module text)")
     parser.add_argument("--bench", metavar="CONFIG",
                         help="time a whole 'stackx bench CONFIG' in this process instead, each run cut to --steps")
-    parser.add_argument("--whole-walk", action="store_true",
-                        help="end each measured solve that misses with Lemke's walk on the whole problem (to see "
-                             "what it lands and costs)")
+    parser.add_argument("--no-whole-walk", action="store_true",
+                        help="leave out the last try on a measured step that both starts missed, Lemke's walk on "
+                             "the whole problem (to see what it lands and costs)")
     parser.add_argument("--fraction", type=float, default=planar_log.FRACTION,
                         help="the step log's stop: residual <= max(1e-10, error / FRACTION) (docs/bench.md)")
     args = parser.parse_args()
     planar_log.FRACTION = args.fraction
     reference.PROXIMAL = args.proximal
-    step_problem.WHOLE_WALK = args.whole_walk
+    step_problem.WHOLE_WALK = not args.no_whole_walk
     if args.bench:
         bench_main(args.bench, args.steps)
         return

@@ -189,3 +189,45 @@ def test_a_second_solve_gives_up_after_its_rounds(monkeypatch: pytest.MonkeyPatc
 
 def _landed(found):  # type: ignore[no-untyped-def]
     return found.pn, found.pt
+
+
+def test_a_large_step_both_starts_miss_ends_with_lemkes_walk_on_the_whole(monkeypatch: pytest.MonkeyPatch) -> None:
+    from stackx.solvers.planar import pivoting
+
+    plain = sp.solve
+    calls: list[str] = []
+    whole_lands = [True]
+
+    def starts_miss(problem: ContactProblem, pn=None, pt=None, **kwargs: object):
+        if kwargs.get("interior", True):  # the warm start and the cold restart
+            calls.append("start")
+            raise ReferenceFailure("scripted", 1e-3)
+        calls.append("whole")
+        if not whole_lands[0]:
+            raise ReferenceFailure("scripted", 2e-3)
+        assert kwargs.get("walk") == 0  # Lemke's walk alone: the proximal point method just missed twice
+        return plain(problem, pn, pt, **kwargs)
+
+    state = pyramid(3)
+    monkeypatch.setattr(pivoting, "EXACT_POINTS", 2)  # this small pile counts as a large problem
+    reference = sp.ReferenceStep(1, state.bodies)
+    s = state
+    args = (s.x[0], s.y[0], s.angle[0], s.vx[0], s.vy[0], s.w[0], s.inv_mass[0], s.inv_inertia[0], s.hx[0],
+            s.hy[0], s.friction[0], -9.8, DT, 0.02)
+    reference.measure(0, 1e-10, *args)  # a first step, landed: the next starts warm
+    monkeypatch.setattr(sp, "solve", starts_miss)
+    found, how = reference.measure(0, 1e-10, *args)
+    assert how == sp.WHOLE and calls == ["start", "start", "whole"]
+    assert residual(reference.problem, found.pn, found.pt) < 1e-10
+    # a whole walk that misses is not made again until a step of the row lands
+    whole_lands[0] = False
+    calls.clear()
+    assert reference.measure(0, 1e-10, *args)[1] == sp.UNSOLVED
+    assert reference.measure(0, 1e-10, *args)[1] == sp.UNSOLVED
+    assert calls == ["start", "start", "whole", "start"]  # (the closest answer kept was none: no cold restart)
+    monkeypatch.setattr(sp, "solve", plain)
+    assert reference.measure(0, 1e-10, *args)[1] != sp.UNSOLVED
+    monkeypatch.setattr(sp, "solve", starts_miss)
+    calls.clear()
+    reference.measure(0, 1e-10, *args)
+    assert calls == ["start", "start", "whole"]

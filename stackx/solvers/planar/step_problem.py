@@ -25,8 +25,11 @@ count toward ``MISSES``. That is ``planar-exact``'s solve (``solve``).
 (``stackx.bench.error_planar.stop_rule``), and where that misses once more from zero impulses (a cold restart:
 the paths' Newton rounds then reach other closest answers; on recorded pyramid-20 steps three of eleven missed
 steps landed so). On a problem over ``pivoting.EXACT_POINTS`` points Lemke's walk on the whole problem is left
-out (``WHOLE_WALK``): with the measured stop no step of the calibration runs or of the pyramid benches needed
-it, and where it ran before it landed 2 of 18 steps at 13 to 19 s each. The proximal point method comes right
+out of both (where it ran in every fallback it landed 2 of 18 steps at 13 to 19 s each) and comes last, alone,
+on a step that both starts missed (``WHOLE_WALK``): on the one step of ``pyramid-20``'s whole bench that they
+missed (``planar-avbd`` at 4 iterations, closest answers at 4.8e-4 and 6.0e-4 m/s against a stop of 3.4e-4) it
+lands in 3.4 s. After one that missed it is not tried again until a step of the row lands, so a pile the
+reference cannot follow pays for it once a stretch. The proximal point method comes right
 after the first central path (``reference.solve``'s ``early_walk``): on a toppling pile every path misses, and
 the walk then costs less than the two more paths and five stages of friction before it (on 161 recorded
 fallback steps of ``pyramid-20`` under ``planar-warm-start`` at 1 iteration, 23 s against 41; on ``pyramid-10``'s
@@ -56,7 +59,7 @@ NEAR_MISS = 1e-8  # m/s: a failed solve whose best residual is below this does n
 # how a measured step's answer came (``ReferenceStep.measure``): the paths or a warm start's Newton rounds, the
 # fallback (the proximal point method, Lemke's walk on the points in doubt), the cold restart, none
 LANDED, FALLBACK, COLD, WHOLE, UNSOLVED = "path", "fallback", "cold restart", "whole walk", "unsolved"
-WHOLE_WALK = False  # a measured solve of a large problem ends with Lemke's walk on the whole (off: not worth it)
+WHOLE_WALK = True  # a measured step of a large problem that both starts missed ends with Lemke's walk on the whole
 NEAREST_WALK = 20  # most rounds of the proximal point method in a second solve for the nearest answer
 
 
@@ -113,6 +116,7 @@ class ReferenceStep:
         self.carried = [np.zeros((room, 2)) for _ in range(rows)]
         self.held = np.zeros(rows, np.int64)
         self.missed = np.zeros(rows, np.int64)  # steps in a row the solve failed, per row
+        self.whole_missed = np.zeros(rows, bool)  # the row's last whole walk missed, and no step landed since
         self.ids, self.table = contact_workspace(room)
         self.problem: ContactProblem | None = None  # the last problem solved
 
@@ -161,9 +165,11 @@ class ReferenceStep:
         ``tolerance`` (the bench's stop tied to the error it measures), by the paths and the fallback (on a
         problem over ``pivoting.EXACT_POINTS`` points without Lemke's walk on the whole, which costs seconds
         there; below, it costs milliseconds and stays), then where that misses from zero impulses (a cold restart), and
-        where that misses too the closest answer either reached (``closest``). Returns the answer and how it
-        came (``LANDED``, ``FALLBACK``, ``COLD``, ``WHOLE``, ``UNSOLVED``); the answer is remembered for the
-        row's next step either way. Depends only on the row's own steps, never on how many failed before."""
+        where that misses too, on such a problem, Lemke's walk on the whole alone (``WHOLE_WALK``; not again
+        after one that missed until a step of the row lands), and where that misses the closest answer any
+        reached (``closest``). Returns the answer and how it came (``LANDED``, ``FALLBACK``, ``COLD``, ``WHOLE``,
+        ``UNSOLVED``); the answer is remembered for the row's next step either way. Depends only on the row's
+        own steps."""
         with compiled(enabled()):  # compiled unless STACKX_JIT=0, however small the run it measures
             problem = self._gather(b, *state)  # type: ignore[arg-type]
             count = problem.points
@@ -179,14 +185,16 @@ class ReferenceStep:
                     continue
                 if how == LANDED and found.attempt not in (PATH, WARM):
                     how = FALLBACK
+                self.whole_missed[b] = False
                 self.keep(b, count, found)
                 return found, how
-            if WHOLE_WALK and large:
-                try:
-                    found = solve(problem, *warm, tolerance=tolerance, interior=False)
+            if WHOLE_WALK and large and not self.whole_missed[b]:
+                try:  # Lemke's walk alone: the paths and the proximal point method have just missed twice
+                    found = solve(problem, *warm, tolerance=tolerance, interior=False, walk=0)
                     self.keep(b, count, found)
                     return found, WHOLE
                 except ReferenceFailure as failure:
+                    self.whole_missed[b] = True
                     failures.append(failure)
             return self.closest(b, min(failures, key=lambda f: f.best)), UNSOLVED
 
