@@ -34,9 +34,10 @@ Newton rounds; ``fallback``, by the proximal point method or the walk on the poi
 solves for the nearest answer (``nearest``, ``nearest missed``). ``--fraction F`` sets the step log's stop
 (``stackx.bench.error_planar.FRACTION``: residual <= max(1e-10, error / F)), to calibrate it; ``--run`` prints
 each run's ``spread`` and how many steps had a second solve (``nearest``).
-Measured with ``--bench configs/planar/pyramid-10.yaml`` (49 runs of 600 steps): 203 s CPU, the reference's
-first solves 78 s and its second solves for the nearest answer 81 s, no step unsolved; docs/bench.md gives
-``pyramid-20``'s and the stop rule's calibration.
+Measured with ``--bench configs/planar/pyramid-10.yaml`` (49 runs of 600 steps): 114 s CPU, the reference's
+first solves 68 s and its second solves for the nearest answer 4 s, no step unsolved; with ``--bench
+configs/planar/pyramid-20.yaml`` (50 runs): 1,179 s CPU, no step unsolved. docs/bench.md gives what they cost
+before and the stop rule's calibration.
 """
 
 from __future__ import annotations
