@@ -346,7 +346,9 @@ class FolderServer:
             self._selector.register(sock, selectors.EVENT_READ, self._receive)
 
     def _receive(self, sock: socket.socket) -> None:
-        waiting = self._waiting[sock]
+        waiting = self._waiting.get(sock)
+        if waiting is None:  # dropped earlier in the same round of events (pushed out by a newer connection)
+            return
         try:
             data = sock.recv(16384)
         except (BlockingIOError, InterruptedError):

@@ -229,3 +229,24 @@ def test_more_idle_connections_than_may_wait_push_out_the_oldest(site: tuple[Pat
     finally:
         for sock in idle:
             sock.close()
+
+
+def test_an_event_of_a_connection_pushed_out_in_the_same_round_is_passed_over(tmp_path: Path) -> None:
+    # one round of events can hold a new connection and more bytes from the oldest waiting one: accepting the
+    # new one drops the oldest, whose read event then finds it gone (the serving thread died of it once)
+    from stackx.output.serve import FolderServer
+
+    with FolderServer(tmp_path, "127.0.0.1", 0, timeout=60, waiting=1) as server:
+        port = server.server_address[1]
+        first = _half_sent(port)  # connected: in the listener's queue
+        server._accept(server.socket)
+        (oldest,) = server._waiting
+        first.sendall(b"Accept: */*\r\n")  # its next bytes: a read event in the round below
+        second = _half_sent(port)
+        server._accept(server.socket)  # the round: the new connection first ...
+        assert oldest not in server._waiting and len(server._waiting) == 1
+        server._receive(oldest)  # ... then the dropped one's event: passed over
+        assert len(server._waiting) == 1
+        assert _closed_by_server(first)
+        first.close()
+        second.close()
