@@ -115,6 +115,12 @@ class BatchLog:
         self.last_unheld = self.last_overlap  # no gap check: a pile is held when nothing overlaps too much
         self.steps = 0
 
+    def spread(self, b: int) -> float | None:
+        """Row ``b``'s spread so far: the RMS over the boxes of the steps where a second answer was found (m/s);
+        None before the first."""
+        found = self.spread_values[b]
+        return float(np.sqrt(self.spread_sumsq[b] / found)) if found else None
+
 
 class RowLog(steplog.RowLog):
     """What one run's steps came to: the column's figures, and how many steps the reference left unsolved."""
@@ -125,7 +131,7 @@ class RowLog(steplog.RowLog):
         checked = int(log.checked[b])
         largest = dict(zip(CONDITIONS, map(float, log.violation_max[b])))
         found = log.spread_values[b]
-        spread = float(np.sqrt(log.spread_sumsq[b] / found)) if found else None
+        spread = log.spread(b)
         return {**super().error(), "unsolved": int(log.unsolved[b]),
                 "unsolved_residual": float(log.unsolved_residual[b]),
                 "spread": spread, "spread_max": float(log.spread_max[b]) if found else None,
@@ -206,8 +212,7 @@ def nearest_wanted(log: BatchLog, b: int, error: float, impulses: tuple[np.ndarr
         return False
     velocities = 3 * int(np.count_nonzero(problem.inv_mass > 0.0))
     sampled = log.measured[b] % SAMPLE == 0
-    found = log.spread_values[b]
-    spread = np.sqrt(log.spread_sumsq[b] / found) if found else 0.0
+    spread = log.spread(b) or 0.0
     so_far = np.sqrt(log.sumsq[b] / log.values[b]) if log.values[b] else 0.0
     return 2 * problem.points > velocities and (sampled or NEGLIGIBLE * so_far <= error <= NEAREST_FACTOR * spread)
 

@@ -182,13 +182,10 @@ def test_a_second_solve_gives_up_after_its_rounds(monkeypatch: pytest.MonkeyPatc
     # walk lands, after more rounds than a second solve is worth)
     zeros = np.zeros(p.points)
     assert step.nearest(zeros, zeros, stop) is None
-    assert residual(p, *_landed(solve(p, zeros, zeros, tolerance=stop, interior=False, lemke=False))) < stop
+    walked = solve(p, zeros, zeros, tolerance=stop, interior=False, lemke=False)
+    assert residual(p, walked.pn, walked.pt) < stop
     monkeypatch.setattr(sp, "NEAREST_WALK", 0)
     assert step.nearest(*mid, stop) is None
-
-
-def _landed(found):  # type: ignore[no-untyped-def]
-    return found.pn, found.pt
 
 
 def test_a_large_step_both_starts_miss_ends_with_lemkes_walk_on_the_whole(monkeypatch: pytest.MonkeyPatch) -> None:

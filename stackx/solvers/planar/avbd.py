@@ -357,6 +357,7 @@ class PlanarAVBD(PlanarMemorySolver):
     """Augmented Vertex Block Descent: a Newton step per body, contacts as stiffening springs (Giles et al. 2025)."""
 
     Params = PlanarAVBDParams
+    carried_values = ROW_VALUES
     speculative_reach = True  # contacts looked for as far as the fastest box closes (stackx.solvers.planar.reach)
 
     def __init__(self, params: list[PlanarAVBDParams], gravity: np.ndarray, dt: np.ndarray) -> None:
@@ -373,16 +374,12 @@ class PlanarAVBD(PlanarMemorySolver):
     def memory(self, state: PlanarState) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """``(keys, carried, held)`` as ``PlanarMemorySolver`` keeps them, with ``ROW_VALUES`` a point in
         ``carried``: its rows' forces (N) and stiffnesses (N/m), its slip and whether it stuck; plus each
-        body's last vertical speed
-        (``previous``, the boxes' own the first time: no felt acceleration)."""
-        room = contact_room(state.bodies)
-        if self.keys is None or self.keys.shape[:2] != (state.batch, room):
-            self.keys = np.empty((state.batch, room, 3), np.int64)
-            self.carried = np.empty((state.batch, room, ROW_VALUES))
-            self.held = np.zeros(state.batch, np.int64)
+        body's last vertical speed (``previous``, the boxes' own the first time: no felt acceleration)."""
+        fresh = self.keys is None or self.keys.shape[:2] != (state.batch, contact_room(state.bodies))
+        kept = super().memory(state)
+        if fresh:
             self.previous = state.vy.copy()
-        assert self.carried is not None and self.held is not None
-        return self.keys, self.carried, self.held
+        return kept
 
     def step_impulses(self, b: int) -> StepImpulses | None:
         """The rows' last forces times the step: the impulses on body B along the normal and the tangent (a
@@ -399,19 +396,8 @@ class PlanarAVBD(PlanarMemorySolver):
         memory sized for one box fewer; the box's last speed goes with it."""
         if self.keys is None:
             return
-        assert self.carried is not None and self.held is not None and self.previous is not None
-        room = contact_room(state.bodies - 1)
-        keys = np.zeros((state.batch, room, 3), np.int64)
-        carried = np.zeros((state.batch, room, self.carried.shape[2]))
-        held = np.zeros(state.batch, np.int64)
-        for b in range(state.batch):
-            k, c = self.keys[b, :self.held[b]], self.carried[b, :self.held[b]]
-            keep = (k[:, 0] != box) & (k[:, 1] != box)
-            k, c = k[keep].copy(), c[keep]
-            k[:, :2] -= k[:, :2] > box
-            held[b] = n = min(len(k), room)
-            keys[b, :n], carried[b, :n] = k[:n], c[:n]
-        self.keys, self.carried, self.held = keys, carried, held
+        super().remove_box(state, box)
+        assert self.previous is not None
         self.previous = np.ascontiguousarray(np.delete(self.previous, box, axis=1))
 
     def advance(self, state: PlanarState, steps: int) -> None:

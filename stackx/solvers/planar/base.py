@@ -76,8 +76,11 @@ class PlanarMemorySolver(PlanarSolver):
     Per batch row: ``keys`` ``(room, 3)``, the ``(A, B, FEATURE)`` of the points of the last step in
     ``collide``'s order, ``carried`` ``(room, 2)`` their normal and tangent impulses, and ``held`` how many
     there are. ``room`` is the room the monitors first give a world (8 points a box): a world with more
-    points keeps the first ``room`` of them, and the rest start their next step from zero.
+    points keeps the first ``room`` of them, and the rest start their next step from zero. A solver that carries
+    more per point (forces and stiffnesses, friction anchors) sets ``carried_values``.
     """
+
+    carried_values: ClassVar[int] = 2  # what ``carried`` holds per point: here its normal and tangent impulses
 
     def __init__(self, params: list[Any], gravity: np.ndarray, dt: np.ndarray) -> None:
         super().__init__(params, gravity, dt)
@@ -92,7 +95,7 @@ class PlanarMemorySolver(PlanarSolver):
         room = contact_room(state.bodies)
         if self.keys is None or self.keys.shape[:2] != (state.batch, room):
             self.keys = np.empty((state.batch, room, 3), np.int64)
-            self.carried = np.empty((state.batch, room, 2))
+            self.carried = np.empty((state.batch, room, self.carried_values))
             self.held = np.zeros(state.batch, np.int64)
         assert self.carried is not None and self.held is not None
         return self.keys, self.carried, self.held
@@ -116,7 +119,7 @@ class PlanarMemorySolver(PlanarSolver):
         assert self.carried is not None and self.held is not None
         room = contact_room(state.bodies - 1)
         keys = np.zeros((state.batch, room, 3), np.int64)
-        carried = np.zeros((state.batch, room, 2))
+        carried = np.zeros((state.batch, room, self.carried_values))
         held = np.zeros(state.batch, np.int64)
         for b in range(state.batch):
             k, c = self.keys[b, :self.held[b]], self.carried[b, :self.held[b]]

@@ -202,20 +202,28 @@ def manifold_levels(links: np.ndarray, m: int, level: np.ndarray, top: np.ndarra
     return highest + 1
 
 
+@leaf
+def frozen_pair(bodies: np.ndarray, links: np.ndarray, j: int,
+                a_frozen: bool) -> tuple[int, int, float, float, float, float, float, float, float, float, float, float]:
+    """Manifold ``j``'s two bodies, their velocities and their inverse masses and inertias, the lower body's
+    (``a_frozen``: body A is the lower) made 0: frozen, so only the upper body moves."""
+    a, b = np.int64(links[j, L_A]), np.int64(links[j, L_B])
+    ima, iia, imb, iib = bodies[a, INV_M], bodies[a, INV_I], bodies[b, INV_M], bodies[b, INV_I]
+    if a_frozen:
+        ima, iia = 0.0, 0.0
+    else:
+        imb, iib = 0.0, 0.0
+    return (a, b, bodies[a, V_X], bodies[a, V_Y], bodies[a, V_W], bodies[b, V_X], bodies[b, V_Y], bodies[b, V_W],
+            ima, iia, imb, iib)
+
+
 @inlined
 def frozen_normals(bodies: np.ndarray, links: np.ndarray, rows: np.ndarray, j: int, a_frozen: bool,
                    block: bool) -> None:
     """Manifold ``j``'s normal totals with its lower body frozen (``a_frozen``: body A is the lower): both at
     once where ``block`` and the two-point matrix of the upper body alone is well conditioned, else point by
     point, kept >= 0; only the upper body's velocities change."""
-    a, b = np.int64(links[j, L_A]), np.int64(links[j, L_B])
-    vax, vay, wa, vbx, vby, wb = (bodies[a, V_X], bodies[a, V_Y], bodies[a, V_W], bodies[b, V_X], bodies[b, V_Y],
-                                  bodies[b, V_W])
-    ima, iia, imb, iib = bodies[a, INV_M], bodies[a, INV_I], bodies[b, INV_M], bodies[b, INV_I]
-    if a_frozen:
-        ima, iia = 0.0, 0.0
-    else:
-        imb, iib = 0.0, 0.0
+    a, b, vax, vay, wa, vbx, vby, wb, ima, iia, imb, iib = frozen_pair(bodies, links, j, a_frozen)
     nx, ny = rows[j, M_NX], rows[j, M_NY]
     points = np.int64(links[j, L_POINTS])
     solved = False
@@ -277,14 +285,7 @@ def frozen_friction(bodies: np.ndarray, links: np.ndarray, rows: np.ndarray, j: 
                     a_frozen: bool) -> None:
     """The friction total of the point of row ``j`` whose columns begin at ``c``, moved towards stopping its
     sliding with the lower body frozen, within ``mu`` times its normal total."""
-    a, b = np.int64(links[j, L_A]), np.int64(links[j, L_B])
-    vax, vay, wa, vbx, vby, wb = (bodies[a, V_X], bodies[a, V_Y], bodies[a, V_W], bodies[b, V_X], bodies[b, V_Y],
-                                  bodies[b, V_W])
-    ima, iia, imb, iib = bodies[a, INV_M], bodies[a, INV_I], bodies[b, INV_M], bodies[b, INV_I]
-    if a_frozen:
-        ima, iia = 0.0, 0.0
-    else:
-        imb, iib = 0.0, 0.0
+    a, b, vax, vay, wa, vbx, vby, wb, ima, iia, imb, iib = frozen_pair(bodies, links, j, a_frozen)
     nx, ny = rows[j, M_NX], rows[j, M_NY]
     kt = effective_mass(ima, iia, rows[j, c + Q_RAX], rows[j, c + Q_RAY], imb, iib, rows[j, c + Q_RBX],
                         rows[j, c + Q_RBY], -ny, nx)

@@ -44,11 +44,10 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field
 
 from stackx.kernel import kernel, leaf, prange
-from stackx.models.planar.monitor import contact_room
 from stackx.models.planar.state import PlanarState
 from stackx.registry import solvers
 from stackx.solvers.contacts import speculative_field
-from stackx.solvers.planar.base import PlanarSolver, StepImpulses
+from stackx.solvers.planar.base import PlanarMemorySolver, StepImpulses
 from stackx.solvers.planar.contacts import (A, B, FEATURE, KN, KT, MU, NX, NY, PN, PT, PX, PY, RAX, RAY, RBX, RBY,
                                             apply_impulse, contact_workspace, effective_mass, find_contacts,
                                             gravity, observed_contacts, recall_impulses, relative_velocity)
@@ -318,11 +317,12 @@ def tgs_sticky_advance(x: np.ndarray, y: np.ndarray, angle: np.ndarray, vx: np.n
 
 
 @solvers.register("planar-tgs-sticky")
-class PlanarTGSSticky(PlanarSolver):
+class PlanarTGSSticky(PlanarMemorySolver):
     """Substepped rigid contacts whose static friction holds anchors where the contact first touched
     (Solver2D's TGS sticky)."""
 
     Params = PlanarTGSStickyParams
+    carried_values = KEPT  # each point's friction anchors instead of impulses
 
     def __init__(self, params: list[PlanarTGSStickyParams], gravity: np.ndarray, dt: np.ndarray) -> None:
         super().__init__(params, gravity, dt)
@@ -333,9 +333,6 @@ class PlanarTGSSticky(PlanarSolver):
         self.push_out = self.column("push_out")
         self.slop = self.column("slop")
         self.speculative = self.column("speculative")
-        self.keys: np.ndarray | None = None
-        self.carried: np.ndarray | None = None
-        self.held: np.ndarray | None = None
 
     @classmethod
     def passes(cls, params: PlanarTGSStickyParams) -> int:
@@ -344,36 +341,6 @@ class PlanarTGSSticky(PlanarSolver):
     def step_impulses(self, b: int) -> StepImpulses | None:
         """None: friction acts at anchors that are not the contact points (see the module text)."""
         return None
-
-    def memory(self, state: PlanarState) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """``(keys, carried, held)`` as ``PlanarMemorySolver``'s, ``carried`` holding each point's friction
-        anchors (``KEPT`` columns) instead of impulses; empty the first time or when the shape changed."""
-        room = contact_room(state.bodies)
-        if self.keys is None or self.keys.shape[:2] != (state.batch, room):
-            self.keys = np.zeros((state.batch, room, 3), np.int64)
-            self.carried = np.zeros((state.batch, room, KEPT))
-            self.held = np.zeros(state.batch, np.int64)
-        assert self.carried is not None and self.held is not None
-        return self.keys, self.carried, self.held
-
-    def remove_box(self, state: PlanarState, box: int) -> None:
-        """Forget the points of box ``box`` and renumber the boxes after it; every other point's anchors stay
-        (they are in their bodies' frames, which a renumbering does not move)."""
-        if self.keys is None:
-            return
-        assert self.carried is not None and self.held is not None
-        room = contact_room(state.bodies - 1)
-        keys = np.zeros((state.batch, room, 3), np.int64)
-        carried = np.zeros((state.batch, room, KEPT))
-        held = np.zeros(state.batch, np.int64)
-        for b in range(state.batch):
-            k, c = self.keys[b, :self.held[b]], self.carried[b, :self.held[b]]
-            keep = (k[:, 0] != box) & (k[:, 1] != box)
-            k, c = k[keep].copy(), c[keep]
-            k[:, :2] -= k[:, :2] > box
-            held[b] = n = min(len(k), room)
-            keys[b, :n], carried[b, :n] = k[:n], c[:n]
-        self.keys, self.carried, self.held = keys, carried, held
 
     def advance(self, state: PlanarState, steps: int) -> None:
         s = state
